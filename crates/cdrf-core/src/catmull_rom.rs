@@ -1,0 +1,1 @@
+//! catmull_rom
