@@ -2,6 +2,7 @@
 //!
 //! (Crate docs with a runnable example are written once the modules settle.)
 
+pub mod atomic;
 pub mod catmull_rom;
 pub mod curvature;
 pub mod gaussian;
@@ -9,4 +10,5 @@ pub mod lut;
 pub mod lut_file;
 pub mod mesh;
 
-pub use lut::{Cdrf, CdrfLut};
+pub use lut::{Cdrf, CdrfLut, CurvatureAxis, Filter, ViewCorrection};
+pub use lut_file::{read_lut, write_lut};

@@ -1,1 +1,339 @@
-//! lut_file
+//! The LUT file: an OpenEXR any image tool can open.
+//!
+//! # Layout (format version 1)
+//! A multi-part OpenEXR file, 32-bit float, lossless (ZIP) compression:
+//!
+//! | part (layer name) | size (width × height) | channels | content |
+//! |---|---|---|---|
+//! | `cdrf.lut` | θ columns × κ rows | `R`, `G`, `B` | f(κ, θ), π·L/E (see [`crate::lut`]) |
+//! | | | `coverage.samples`, `coverage.spread` | only when the table has [`TexelCoverage`] |
+//! | `cdrf.view` | φ columns × θ rows | `R`, `G`, `B` | the view correction g(θ, φ) |
+//!
+//! Row 0 of `cdrf.lut` (the top of the picture in an image viewer) is the smallest curvature,
+//! column 0 is θ = 0 (facing the light). The `cdrf.lut` part carries these header attributes:
+//!
+//! | attribute | type | meaning |
+//! |---|---|---|
+//! | `cdrf.format` | text | always `cdrf-lut`: what marks the file as ours |
+//! | `cdrf.version` | int | [`FORMAT_VERSION`]; newer files are refused with a clear error |
+//! | `cdrf.curvature_min_per_mm`, `cdrf.curvature_max_per_mm` | float | κ of the first and last row, mm⁻¹ |
+//! | `cdrf.curvature_axis` | text | `uniform kappa [min, max] mm^-1, rows at the ends` |
+//! | `cdrf.theta_axis` | text | `uniform theta [0, pi] rad, columns at the ends` |
+//! | `cdrf.view_axes` | text | `phi uniform [0, pi/2] columns x theta uniform [0, pi] rows` |
+//! | `cdrf.radiance` | text | `pi*L/E (white Lambertian = max(cos theta, 0))` |
+//! | `cdrf.provenance.KEY` | text | one per provenance entry (UTF-8) |
+//!
+//! The axis and radiance texts are checked when reading, so a file written under another
+//! convention is refused instead of misread.
+
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use exr::prelude::{
+    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes, Layer,
+    LayerAttributes, ReadChannels, ReadLayers, Text, WritableImage,
+};
+use glam::Vec3;
+use thiserror::Error;
+
+use crate::lut::{CdrfLut, CurvatureAxis, LutError, TexelCoverage, ViewCorrection};
+
+/// The version this crate writes and the newest it reads.
+pub const FORMAT_VERSION: i32 = 1;
+
+const LUT_LAYER: &str = "cdrf.lut";
+const VIEW_LAYER: &str = "cdrf.view";
+const FORMAT_NAME: &str = "cdrf-lut";
+const ATTR_FORMAT: &str = "cdrf.format";
+const ATTR_VERSION: &str = "cdrf.version";
+const ATTR_CURVATURE_MIN: &str = "cdrf.curvature_min_per_mm";
+const ATTR_CURVATURE_MAX: &str = "cdrf.curvature_max_per_mm";
+const ATTR_CURVATURE_AXIS: &str = "cdrf.curvature_axis";
+const ATTR_THETA_AXIS: &str = "cdrf.theta_axis";
+const ATTR_VIEW_AXES: &str = "cdrf.view_axes";
+const ATTR_RADIANCE: &str = "cdrf.radiance";
+const ATTR_PROVENANCE_PREFIX: &str = "cdrf.provenance.";
+const CURVATURE_AXIS: &str = "uniform kappa [min, max] mm^-1, rows at the ends";
+const THETA_AXIS: &str = "uniform theta [0, pi] rad, columns at the ends";
+const VIEW_AXES: &str = "phi uniform [0, pi/2] columns x theta uniform [0, pi] rows";
+const RADIANCE: &str = "pi*L/E (white Lambertian = max(cos theta, 0))";
+const COVERAGE_SAMPLES: &str = "coverage.samples";
+const COVERAGE_SPREAD: &str = "coverage.spread";
+
+/// Why a LUT file could not be read or written.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum LutFileError {
+    /// The file system refused (missing file, permissions, full disk).
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The file is not a readable OpenEXR image (truncated, corrupt, another format).
+    #[error("{}: not a readable OpenEXR file: {source}", path.display())]
+    Exr {
+        /// The file.
+        path: PathBuf,
+        /// What the decoder said.
+        source: exr::error::Error,
+    },
+    /// An OpenEXR file, but not a cdrf LUT, or one written under other conventions.
+    #[error("{}: not a cdrf LUT: {reason}", path.display())]
+    NotACdrfLut {
+        /// The file.
+        path: PathBuf,
+        /// What is missing or different.
+        reason: String,
+    },
+    /// A cdrf LUT from a newer version of cdrf.
+    #[error(
+        "{}: cdrf LUT format version {found}; this build reads up to {FORMAT_VERSION}",
+        path.display()
+    )]
+    UnsupportedVersion {
+        /// The file.
+        path: PathBuf,
+        /// The version in the file.
+        found: i32,
+    },
+    /// The table in the file is malformed (wrong shape, negative or non-finite values).
+    #[error("{}: {source}", path.display())]
+    InvalidTable {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with the table.
+        source: LutError,
+    },
+}
+
+/// Writes `lut` to `path` atomically: a temporary file beside it, renamed over `path` only once
+/// complete, so a failed write never leaves a partial or clobbered file.
+///
+/// # Errors
+/// When the directory is not writable or encoding fails.
+pub fn write_lut(lut: &CdrfLut, path: impl AsRef<Path>) -> Result<(), LutFileError> {
+    let path = path.as_ref();
+    let image = Image::from_layers(
+        ImageAttributes::with_size((lut.theta_count(), lut.curvature_axis().count)),
+        vec![lut_layer(lut), view_layer(lut.view_correction())],
+    );
+    crate::atomic::write_file(path, |file| {
+        let mut writer = BufWriter::new(file);
+        image
+            .write()
+            .to_buffered(&mut writer)
+            .map_err(std::io::Error::other)?;
+        writer.flush()
+    })
+    .map_err(|source| LutFileError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Reads a LUT written by [`write_lut`] (or any tool that follows the layout above).
+///
+/// # Errors
+/// When the file cannot be read, is not OpenEXR, is not a cdrf LUT, is from a newer format
+/// version, or holds a malformed table.
+pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| LutFileError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .non_parallel()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|source| LutFileError::Exr {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let not_ours = |reason: String| LutFileError::NotACdrfLut {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let find = |name: &str| {
+        image
+            .layer_data
+            .iter()
+            .find(|layer| layer.attributes.layer_name.as_ref().map(Text::to_string) == Some(name.into()))
+    };
+    let lut_layer = find(LUT_LAYER).ok_or_else(|| not_ours(format!("no `{LUT_LAYER}` layer")))?;
+    let attributes = &lut_layer.attributes.other;
+    let text = |name: &str| match attributes.get(&Text::from(name)) {
+        Some(AttributeValue::Text(text)) => Ok(String::from_utf8_lossy(text.as_slice()).into_owned()),
+        _ => Err(not_ours(format!("text attribute `{name}` missing"))),
+    };
+    let float = |name: &str| match attributes.get(&Text::from(name)) {
+        Some(AttributeValue::F32(value)) => Ok(*value),
+        _ => Err(not_ours(format!("float attribute `{name}` missing"))),
+    };
+    if text(ATTR_FORMAT)? != FORMAT_NAME {
+        return Err(not_ours(format!("`{ATTR_FORMAT}` is not `{FORMAT_NAME}`")));
+    }
+    match attributes.get(&Text::from(ATTR_VERSION)) {
+        Some(AttributeValue::I32(version)) if *version > FORMAT_VERSION => {
+            return Err(LutFileError::UnsupportedVersion {
+                path: path.to_path_buf(),
+                found: *version,
+            });
+        }
+        Some(AttributeValue::I32(version)) if *version >= 1 => {}
+        _ => return Err(not_ours(format!("int attribute `{ATTR_VERSION}` missing or < 1"))),
+    }
+    for (name, expected) in [
+        (ATTR_CURVATURE_AXIS, CURVATURE_AXIS),
+        (ATTR_THETA_AXIS, THETA_AXIS),
+        (ATTR_VIEW_AXES, VIEW_AXES),
+        (ATTR_RADIANCE, RADIANCE),
+    ] {
+        let found = text(name)?;
+        if found != expected {
+            return Err(not_ours(format!("`{name}` is `{found}`, expected `{expected}`")));
+        }
+    }
+
+    let (theta_count, curvature_count) = (lut_layer.size.width(), lut_layer.size.height());
+    let axis = CurvatureAxis {
+        min_per_mm: float(ATTR_CURVATURE_MIN)?,
+        max_per_mm: float(ATTR_CURVATURE_MAX)?,
+        count: curvature_count,
+    };
+    let channels = &lut_layer.channel_data.list;
+    let channel = |name: &str| channels.iter().find(|c| c.name == Text::from(name));
+    let rgb = |layer_name: &str, list: &[AnyChannel<FlatSamples>]| {
+        let get = |name: &str| {
+            list.iter()
+                .find(|c| c.name == Text::from(name))
+                .map(|c| c.sample_data.values_as_f32().collect::<Vec<f32>>())
+                .ok_or_else(|| not_ours(format!("layer `{layer_name}` has no channel `{name}`")))
+        };
+        let (r, g, b) = (get("R")?, get("G")?, get("B")?);
+        Ok::<Vec<Vec3>, LutFileError>(
+            r.iter()
+                .zip(&g)
+                .zip(&b)
+                .map(|((&r, &g), &b)| Vec3::new(r, g, b))
+                .collect(),
+        )
+    };
+    let invalid = |source: LutError| LutFileError::InvalidTable {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut lut = CdrfLut::new(axis, theta_count, rgb(LUT_LAYER, channels)?).map_err(invalid)?;
+
+    match (channel(COVERAGE_SAMPLES), channel(COVERAGE_SPREAD)) {
+        (Some(samples), Some(spread)) => {
+            let coverage = samples
+                .sample_data
+                .values_as_f32()
+                .zip(spread.sample_data.values_as_f32())
+                .map(|(sample_count, relative_spread)| TexelCoverage {
+                    sample_count,
+                    relative_spread,
+                })
+                .collect();
+            lut = lut.with_coverage(coverage).map_err(invalid)?;
+        }
+        (None, None) => {}
+        _ => {
+            return Err(not_ours(format!(
+                "`{COVERAGE_SAMPLES}` and `{COVERAGE_SPREAD}` must come together"
+            )));
+        }
+    }
+
+    let view = find(VIEW_LAYER).ok_or_else(|| not_ours(format!("no `{VIEW_LAYER}` layer")))?;
+    let view_correction = ViewCorrection::new(
+        view.size.width(),
+        view.size.height(),
+        rgb(VIEW_LAYER, &view.channel_data.list)?,
+    )
+    .map_err(invalid)?;
+    lut = lut.with_view_correction(view_correction);
+
+    let mut provenance: Vec<(String, String)> = attributes
+        .iter()
+        .filter_map(|(name, value)| {
+            let key = name.to_string().strip_prefix(ATTR_PROVENANCE_PREFIX)?.to_owned();
+            match value {
+                AttributeValue::Text(text) => {
+                    Some((key, String::from_utf8_lossy(text.as_slice()).into_owned()))
+                }
+                _ => None,
+            }
+        })
+        .collect();
+    provenance.sort();
+    for (key, value) in provenance {
+        lut = lut.with_provenance(key, value);
+    }
+    Ok(lut)
+}
+
+fn lut_layer(lut: &CdrfLut) -> Layer<AnyChannels<FlatSamples>> {
+    let mut channels = rgb_channels(lut.radiance());
+    if let Some(coverage) = lut.coverage() {
+        channels.push(AnyChannel::new(
+            COVERAGE_SAMPLES,
+            FlatSamples::F32(coverage.iter().map(|c| c.sample_count).collect()),
+        ));
+        channels.push(AnyChannel::new(
+            COVERAGE_SPREAD,
+            FlatSamples::F32(coverage.iter().map(|c| c.relative_spread).collect()),
+        ));
+    }
+    let axis = lut.curvature_axis();
+    let mut attributes = LayerAttributes::named(LUT_LAYER);
+    let other = &mut attributes.other;
+    let mut put_text = |name: &str, value: &str| {
+        other.insert(
+            Text::from(name),
+            AttributeValue::Text(Text::from_slice_unchecked(value.as_bytes())),
+        );
+    };
+    put_text(ATTR_FORMAT, FORMAT_NAME);
+    put_text(ATTR_CURVATURE_AXIS, CURVATURE_AXIS);
+    put_text(ATTR_THETA_AXIS, THETA_AXIS);
+    put_text(ATTR_VIEW_AXES, VIEW_AXES);
+    put_text(ATTR_RADIANCE, RADIANCE);
+    for (key, value) in lut.provenance() {
+        put_text(&format!("{ATTR_PROVENANCE_PREFIX}{key}"), value);
+    }
+    other.insert(Text::from(ATTR_VERSION), AttributeValue::I32(FORMAT_VERSION));
+    other.insert(Text::from(ATTR_CURVATURE_MIN), AttributeValue::F32(axis.min_per_mm));
+    other.insert(Text::from(ATTR_CURVATURE_MAX), AttributeValue::F32(axis.max_per_mm));
+    Layer::new(
+        (lut.theta_count(), axis.count),
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels.into()),
+    )
+}
+
+fn view_layer(view: &ViewCorrection) -> Layer<AnyChannels<FlatSamples>> {
+    Layer::new(
+        (view.phi_count(), view.theta_count()),
+        LayerAttributes::named(VIEW_LAYER),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(rgb_channels(view.values()).into()),
+    )
+}
+
+fn rgb_channels(values: &[Vec3]) -> Vec<AnyChannel<FlatSamples>> {
+    ["R", "G", "B"]
+        .into_iter()
+        .enumerate()
+        .map(|(c, name)| AnyChannel::new(name, FlatSamples::F32(values.iter().map(|v| v[c]).collect())))
+        .collect()
+}

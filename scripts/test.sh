@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# The whole test suite, exactly as CI runs it (.ci/run calls this script).
+#
+# On a fresh Debian/Ubuntu machine it first installs what is missing — Mesa's software Vulkan
+# driver (lavapipe) for the GPU tests, a C++ compiler for crates that build C++ — using sudo only
+# when not root. Then: format check, clippy with warnings as errors, every test (unit,
+# integration, CLI, doc tests), and the docs build.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+
+section() { printf '\n==> %s\n' "$*"; }
+
+if ! command -v cargo >/dev/null 2>&1; then
+  echo "error: cargo not found. Install Rust 1.95 or newer (https://rustup.rs), then run $0 again." >&2
+  exit 1
+fi
+
+missing=()
+ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1' || missing+=(libvulkan1)
+compgen -G '/usr/share/vulkan/icd.d/lvp_icd*.json' >/dev/null || missing+=(mesa-vulkan-drivers)
+command -v g++ >/dev/null 2>&1 || missing+=(g++)
+if ((${#missing[@]})); then
+  section "installing ${missing[*]}"
+  sudo=()
+  [ "$(id -u)" -eq 0 ] || sudo=(sudo)
+  export DEBIAN_FRONTEND=noninteractive
+  "${sudo[@]}" apt-get update -qq
+  "${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+section "cargo fmt --check"
+cargo fmt --all --check
+
+section "cargo clippy -D warnings"
+cargo clippy --workspace --all-targets --locked -- -D warnings
+
+section "cargo test"
+# --show-output prints the figures tests measure (curvature errors, spline overshoot, ...).
+cargo test --workspace --locked -- --show-output
+
+section "cargo doc"
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked --quiet
+
+section "all checks passed"
