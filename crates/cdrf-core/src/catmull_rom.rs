@@ -40,7 +40,9 @@ use thiserror::Error;
 
 /// A value a spline can interpolate: `f32`, [`glam::Vec3`] (RGB), and anything else with
 /// vector-space arithmetic.
-pub trait SplineValue: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<f32, Output = Self> {
+pub trait SplineValue:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<f32, Output = Self>
+{
     /// Applies `f` to every component (used by the monotone tangent limiter).
     fn map_components(self, f: impl Fn(f32) -> f32) -> Self;
     /// Combines two values component by component.
@@ -99,7 +101,9 @@ pub enum SplineError {
         value: f32,
     },
     /// Knots are not strictly increasing.
-    #[error("knot {index} ({value}) is not greater than the one before ({previous}): knots must increase strictly")]
+    #[error(
+        "knot {index} ({value}) is not greater than the one before ({previous}): knots must increase strictly"
+    )]
     KnotsNotIncreasing {
         /// Position of the offending knot.
         index: usize,
@@ -296,7 +300,10 @@ mod tests {
         let spline = CatmullRom::new(&knots, &values).unwrap();
         for step in 0..=80 {
             let u = step as f32 * 0.05;
-            let (a, b) = (spline.evaluate(u), evaluate_uniform(&values, u, Ends::OneSided));
+            let (a, b) = (
+                spline.evaluate(u),
+                evaluate_uniform(&values, u, Ends::OneSided),
+            );
             assert!((a - b).abs() < 1e-5, "u = {u}: general {a}, uniform {b}");
         }
     }

@@ -432,7 +432,8 @@ impl CdrfLut {
                 let along_theta = &along_theta[..=last - first];
                 // The window holds the rows the segment around v needs (and the axis ends where
                 // they are the ends), so the spline over it equals the one over the whole axis.
-                catmull_rom::evaluate_uniform(along_theta, v - first as f32, Ends::OneSided).max(Vec3::ZERO)
+                catmull_rom::evaluate_uniform(along_theta, v - first as f32, Ends::OneSided)
+                    .max(Vec3::ZERO)
             }
         }
     }

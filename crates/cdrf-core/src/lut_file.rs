@@ -162,15 +162,16 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
         reason,
     };
     let find = |name: &str| {
-        image
-            .layer_data
-            .iter()
-            .find(|layer| layer.attributes.layer_name.as_ref().map(Text::to_string) == Some(name.into()))
+        image.layer_data.iter().find(|layer| {
+            layer.attributes.layer_name.as_ref().map(Text::to_string) == Some(name.into())
+        })
     };
     let lut_layer = find(LUT_LAYER).ok_or_else(|| not_ours(format!("no `{LUT_LAYER}` layer")))?;
     let attributes = &lut_layer.attributes.other;
     let text = |name: &str| match attributes.get(&Text::from(name)) {
-        Some(AttributeValue::Text(text)) => Ok(String::from_utf8_lossy(text.as_slice()).into_owned()),
+        Some(AttributeValue::Text(text)) => {
+            Ok(String::from_utf8_lossy(text.as_slice()).into_owned())
+        }
         _ => Err(not_ours(format!("text attribute `{name}` missing"))),
     };
     let float = |name: &str| match attributes.get(&Text::from(name)) {
@@ -188,7 +189,11 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
             });
         }
         Some(AttributeValue::I32(version)) if *version >= 1 => {}
-        _ => return Err(not_ours(format!("int attribute `{ATTR_VERSION}` missing or < 1"))),
+        _ => {
+            return Err(not_ours(format!(
+                "int attribute `{ATTR_VERSION}` missing or < 1"
+            )));
+        }
     }
     for (name, expected) in [
         (ATTR_CURVATURE_AXIS, CURVATURE_AXIS),
@@ -198,7 +203,9 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
     ] {
         let found = text(name)?;
         if found != expected {
-            return Err(not_ours(format!("`{name}` is `{found}`, expected `{expected}`")));
+            return Err(not_ours(format!(
+                "`{name}` is `{found}`, expected `{expected}`"
+            )));
         }
     }
 
@@ -265,7 +272,10 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
     let mut provenance: Vec<(String, String)> = attributes
         .iter()
         .filter_map(|(name, value)| {
-            let key = name.to_string().strip_prefix(ATTR_PROVENANCE_PREFIX)?.to_owned();
+            let key = name
+                .to_string()
+                .strip_prefix(ATTR_PROVENANCE_PREFIX)?
+                .to_owned();
             match value {
                 AttributeValue::Text(text) => {
                     Some((key, String::from_utf8_lossy(text.as_slice()).into_owned()))
@@ -310,9 +320,18 @@ fn lut_layer(lut: &CdrfLut) -> Layer<AnyChannels<FlatSamples>> {
     for (key, value) in lut.provenance() {
         put_text(&format!("{ATTR_PROVENANCE_PREFIX}{key}"), value);
     }
-    other.insert(Text::from(ATTR_VERSION), AttributeValue::I32(FORMAT_VERSION));
-    other.insert(Text::from(ATTR_CURVATURE_MIN), AttributeValue::F32(axis.min_per_mm));
-    other.insert(Text::from(ATTR_CURVATURE_MAX), AttributeValue::F32(axis.max_per_mm));
+    other.insert(
+        Text::from(ATTR_VERSION),
+        AttributeValue::I32(FORMAT_VERSION),
+    );
+    other.insert(
+        Text::from(ATTR_CURVATURE_MIN),
+        AttributeValue::F32(axis.min_per_mm),
+    );
+    other.insert(
+        Text::from(ATTR_CURVATURE_MAX),
+        AttributeValue::F32(axis.max_per_mm),
+    );
     Layer::new(
         (lut.theta_count(), axis.count),
         attributes,
@@ -334,6 +353,11 @@ fn rgb_channels(values: &[Vec3]) -> Vec<AnyChannel<FlatSamples>> {
     ["R", "G", "B"]
         .into_iter()
         .enumerate()
-        .map(|(c, name)| AnyChannel::new(name, FlatSamples::F32(values.iter().map(|v| v[c]).collect())))
+        .map(|(c, name)| {
+            AnyChannel::new(
+                name,
+                FlatSamples::F32(values.iter().map(|v| v[c]).collect()),
+            )
+        })
         .collect()
 }

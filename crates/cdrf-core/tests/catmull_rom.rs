@@ -26,7 +26,12 @@ fn passes_through_every_knot() {
     for tangents in [Tangents::CatmullRom, Tangents::Monotone] {
         let spline = CatmullRom::with_tangents(&knots, &values, tangents).unwrap();
         for (k, v) in knots.iter().zip(&values) {
-            assert_close(&format!("{tangents:?} at κ = {k}"), spline.evaluate(*k), *v, 1e-6);
+            assert_close(
+                &format!("{tangents:?} at κ = {k}"),
+                spline.evaluate(*k),
+                *v,
+                1e-6,
+            );
         }
     }
 }
@@ -45,18 +50,28 @@ fn reproduces_linear_data_exactly_on_non_uniform_knots() {
             worst = worst.max((spline.evaluate(x) - line(x)).abs());
         }
         println!("{tangents:?}: worst deviation from a line over 1001 points: {worst:e}");
-        assert!(worst < 2e-6, "{tangents:?}: deviates from linear data by {worst}");
+        assert!(
+            worst < 2e-6,
+            "{tangents:?}: deviates from linear data by {worst}"
+        );
     }
 }
 
 #[test]
 fn interpolates_rgb_values() {
     let knots = [0.0_f32, 1.0, 3.0];
-    let values = [Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0), Vec3::new(3.0, 6.0, 9.0)];
+    let values = [
+        Vec3::ZERO,
+        Vec3::new(1.0, 2.0, 3.0),
+        Vec3::new(3.0, 6.0, 9.0),
+    ];
     let spline = CatmullRom::new(&knots, &values).unwrap();
     // Linear data in every channel: exact everywhere.
     let v = spline.evaluate(2.0);
-    assert!((v - Vec3::new(2.0, 4.0, 6.0)).abs().max_element() < 1e-6, "{v}");
+    assert!(
+        (v - Vec3::new(2.0, 4.0, 6.0)).abs().max_element() < 1e-6,
+        "{v}"
+    );
 }
 
 #[test]
@@ -91,7 +106,11 @@ fn overshoot_on_a_step_stays_within_the_documented_bound() {
         // flat side before and after the jump.
         let h = |i: usize| knots[i + 1] - knots[i];
         let bound = |rho: f32| 4.0 / 27.0 * rho * rho / (1.0 + rho);
-        let before = if jump > 0 { bound(h(jump - 1) / h(jump)) } else { 0.0 };
+        let before = if jump > 0 {
+            bound(h(jump - 1) / h(jump))
+        } else {
+            0.0
+        };
         let after = if jump + 2 < knots.len() {
             bound(h(jump + 1) / h(jump))
         } else {
@@ -106,7 +125,10 @@ fn overshoot_on_a_step_stays_within_the_documented_bound() {
             found <= documented + 1e-4,
             "overshoot {found} exceeds documented {documented}"
         );
-        assert!(found > 0.0 || documented == 0.0, "the bound should be attained");
+        assert!(
+            found > 0.0 || documented == 0.0,
+            "the bound should be attained"
+        );
 
         let monotone = CatmullRom::with_tangents(&knots, &values, Tangents::Monotone).unwrap();
         let found = overshoot(&monotone, 0.0, 1.0);
@@ -114,7 +136,12 @@ fn overshoot_on_a_step_stays_within_the_documented_bound() {
     }
     // Uniform knots: the classic 2/27 ≈ 7.4 %.
     let uniform = CatmullRom::new(&[0.0_f32, 1.0, 2.0, 3.0], &[0.0_f32, 0.0, 1.0, 1.0]).unwrap();
-    assert_close("uniform overshoot", overshoot(&uniform, 0.0, 1.0), 2.0 / 27.0, 1e-4);
+    assert_close(
+        "uniform overshoot",
+        overshoot(&uniform, 0.0, 1.0),
+        2.0 / 27.0,
+        1e-4,
+    );
 }
 
 #[test]
@@ -124,17 +151,39 @@ fn uniform_evaluation_is_the_same_spline() {
     let spline = CatmullRom::new(&knots, &values).unwrap();
     for step in 0..=500 {
         let u = step as f32 / 100.0;
-        assert_close(&format!("u = {u}"), evaluate_uniform(&values, u, Ends::OneSided), spline.evaluate(u), 1e-5);
+        assert_close(
+            &format!("u = {u}"),
+            evaluate_uniform(&values, u, Ends::OneSided),
+            spline.evaluate(u),
+            1e-5,
+        );
     }
 }
 
 #[test]
 fn mirrored_ends_have_zero_slope() {
     let values = [1.0_f32, 0.8, 0.3, 0.1];
-    let slope_at = |u: f32| (evaluate_uniform(&values, u + 1e-3, Ends::Mirrored) - evaluate_uniform(&values, u, Ends::Mirrored)) / 1e-3;
-    assert!(slope_at(0.0).abs() < 2e-3, "slope at the first knot {}", slope_at(0.0));
-    assert!(slope_at(3.0 - 1e-3).abs() < 2e-3, "slope at the last knot {}", slope_at(3.0 - 1e-3));
-    assert_close("interior still interpolates", evaluate_uniform(&values, 2.0, Ends::Mirrored), 0.3, 1e-6);
+    let slope_at = |u: f32| {
+        (evaluate_uniform(&values, u + 1e-3, Ends::Mirrored)
+            - evaluate_uniform(&values, u, Ends::Mirrored))
+            / 1e-3
+    };
+    assert!(
+        slope_at(0.0).abs() < 2e-3,
+        "slope at the first knot {}",
+        slope_at(0.0)
+    );
+    assert!(
+        slope_at(3.0 - 1e-3).abs() < 2e-3,
+        "slope at the last knot {}",
+        slope_at(3.0 - 1e-3)
+    );
+    assert_close(
+        "interior still interpolates",
+        evaluate_uniform(&values, 2.0, Ends::Mirrored),
+        0.3,
+        1e-6,
+    );
 }
 
 #[test]
@@ -152,5 +201,8 @@ fn bad_knots_are_errors() {
         Err(SplineError::NonFiniteKnot { index: 1, .. })
     ));
     let error = CatmullRom::new(&[0.0_f32, 1.0], &[1.0_f32]).unwrap_err();
-    assert_eq!(error.to_string(), "2 knots but 1 values: a spline needs one value per knot");
+    assert_eq!(
+        error.to_string(),
+        "2 knots but 1 values: a spline needs one value per knot"
+    );
 }

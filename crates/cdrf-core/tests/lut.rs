@@ -68,15 +68,27 @@ fn catmull_rom_filter_is_more_accurate_than_bilinear_on_smooth_data() {
     let (mut bilinear, mut cubic) = (0.0_f32, 0.0_f32);
     for i in 0..200 {
         for j in 0..200 {
-            let curvature = axis.min_per_mm + (axis.max_per_mm - axis.min_per_mm) * i as f32 / 199.0;
+            let curvature =
+                axis.min_per_mm + (axis.max_per_mm - axis.min_per_mm) * i as f32 / 199.0;
             let theta = PI * j as f32 / 199.0;
             let truth = Vec3::from_array(Smooth.reflectance(curvature, theta));
-            bilinear = bilinear.max((lut.sample(curvature, theta, Filter::Bilinear) - truth).abs().max_element());
-            cubic = cubic.max((lut.sample(curvature, theta, Filter::CatmullRom) - truth).abs().max_element());
+            bilinear = bilinear.max(
+                (lut.sample(curvature, theta, Filter::Bilinear) - truth)
+                    .abs()
+                    .max_element(),
+            );
+            cubic = cubic.max(
+                (lut.sample(curvature, theta, Filter::CatmullRom) - truth)
+                    .abs()
+                    .max_element(),
+            );
         }
     }
     println!("46 θ columns × 8 κ rows: worst error bilinear {bilinear:e}, Catmull-Rom {cubic:e}");
-    assert!(cubic < bilinear / 3.0, "Catmull-Rom {cubic} vs bilinear {bilinear}");
+    assert!(
+        cubic < bilinear / 3.0,
+        "Catmull-Rom {cubic} vs bilinear {bilinear}"
+    );
 }
 
 #[test]
@@ -89,11 +101,19 @@ fn curvature_outside_the_axis_is_clamped_to_the_end_rows() {
             let most_curved = lut.sample(axis.max_per_mm, theta, filter);
             // Flat, concave and barely curved points read the flattest row...
             for curvature in [0.0, -0.3, 0.5 * axis.min_per_mm, f32::NAN] {
-                assert_eq!(lut.sample(curvature, theta, filter), flattest, "κ = {curvature}");
+                assert_eq!(
+                    lut.sample(curvature, theta, filter),
+                    flattest,
+                    "κ = {curvature}"
+                );
             }
             // ...and anything sharper than the smallest sphere reads the last row.
             for curvature in [0.1, 10.0, f32::INFINITY] {
-                assert_eq!(lut.sample(curvature, theta, filter), most_curved, "κ = {curvature}");
+                assert_eq!(
+                    lut.sample(curvature, theta, filter),
+                    most_curved,
+                    "κ = {curvature}"
+                );
             }
         }
     }
@@ -102,8 +122,14 @@ fn curvature_outside_the_axis_is_clamped_to_the_end_rows() {
 #[test]
 fn theta_is_clamped_to_zero_to_pi() {
     let lut = CdrfLut::tabulate(&Smooth, wax_axis(4), 19).unwrap();
-    assert_eq!(lut.sample(0.03, -0.5, Filter::Bilinear), lut.sample(0.03, 0.0, Filter::Bilinear));
-    assert_eq!(lut.sample(0.03, 4.0, Filter::CatmullRom), lut.sample(0.03, PI, Filter::CatmullRom));
+    assert_eq!(
+        lut.sample(0.03, -0.5, Filter::Bilinear),
+        lut.sample(0.03, 0.0, Filter::Bilinear)
+    );
+    assert_eq!(
+        lut.sample(0.03, 4.0, Filter::CatmullRom),
+        lut.sample(0.03, PI, Filter::CatmullRom)
+    );
 }
 
 #[test]
@@ -112,7 +138,9 @@ fn catmull_rom_never_returns_negative_radiance() {
     let lut = CdrfLut::new(
         wax_axis(2),
         5,
-        [1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0].map(Vec3::splat).to_vec(),
+        [1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0]
+            .map(Vec3::splat)
+            .to_vec(),
     )
     .unwrap();
     for step in 0..=100 {
@@ -130,13 +158,26 @@ fn view_correction_multiplies_and_interpolates() {
         .with_view_correction(g);
     let theta = 0.3_f32;
     let f = theta.cos();
-    for (phi, factor) in [(0.0, 1.0), (FRAC_PI_2 / 4.0, 1.125), (FRAC_PI_2, 1.5), (3.0, 1.5)] {
+    for (phi, factor) in [
+        (0.0, 1.0),
+        (FRAC_PI_2 / 4.0, 1.125),
+        (FRAC_PI_2, 1.5),
+        (3.0, 1.5),
+    ] {
         let value = lut.evaluate(0.03, theta, phi, Filter::Bilinear).x;
-        assert!((value - f * factor).abs() < 1e-4, "φ = {phi}: {value} vs {}", f * factor);
+        assert!(
+            (value - f * factor).abs() < 1e-4,
+            "φ = {phi}: {value} vs {}",
+            f * factor
+        );
     }
     // θ-dependent form: rows over θ ∈ [0, π].
-    let g = ViewCorrection::new(2, 2, vec![Vec3::ONE, Vec3::splat(2.0), Vec3::ONE, Vec3::splat(0.5)])
-        .unwrap();
+    let g = ViewCorrection::new(
+        2,
+        2,
+        vec![Vec3::ONE, Vec3::splat(2.0), Vec3::ONE, Vec3::splat(0.5)],
+    )
+    .unwrap();
     assert!((g.sample(0.0, FRAC_PI_2).x - 2.0).abs() < 1e-6);
     assert!((g.sample(PI, FRAC_PI_2).x - 0.5).abs() < 1e-6);
     assert!((g.sample(FRAC_PI_2, FRAC_PI_2).x - 1.25).abs() < 1e-6);
@@ -145,7 +186,11 @@ fn view_correction_multiplies_and_interpolates() {
 
 #[test]
 fn single_row_table_ignores_curvature() {
-    let axis = CurvatureAxis { min_per_mm: 0.04, max_per_mm: 0.04, count: 1 };
+    let axis = CurvatureAxis {
+        min_per_mm: 0.04,
+        max_per_mm: 0.04,
+        count: 1,
+    };
     let lut = CdrfLut::tabulate(&Smooth, axis, 10).unwrap();
     for filter in [Filter::Bilinear, Filter::CatmullRom] {
         assert_eq!(lut.sample(0.0, 1.0, filter), lut.sample(1.0, 1.0, filter));
@@ -157,22 +202,45 @@ fn malformed_tables_are_errors_not_panics() {
     let axis = wax_axis(2);
     assert_eq!(
         CdrfLut::new(axis, 3, vec![Vec3::ONE; 5]).unwrap_err(),
-        LutError::ShapeMismatch { what: "radiance", expected: 6, found: 5 }
+        LutError::ShapeMismatch {
+            what: "radiance",
+            expected: 6,
+            found: 5
+        }
     );
-    assert_eq!(CdrfLut::new(axis, 1, vec![Vec3::ONE; 2]).unwrap_err(), LutError::TooFewThetaColumns(1));
-    let bad_axis = CurvatureAxis { min_per_mm: 0.05, max_per_mm: 0.02, count: 4 };
-    assert!(matches!(CdrfLut::new(bad_axis, 2, vec![Vec3::ONE; 8]), Err(LutError::BadCurvatureAxis(_))));
+    assert_eq!(
+        CdrfLut::new(axis, 1, vec![Vec3::ONE; 2]).unwrap_err(),
+        LutError::TooFewThetaColumns(1)
+    );
+    let bad_axis = CurvatureAxis {
+        min_per_mm: 0.05,
+        max_per_mm: 0.02,
+        count: 4,
+    };
+    assert!(matches!(
+        CdrfLut::new(bad_axis, 2, vec![Vec3::ONE; 8]),
+        Err(LutError::BadCurvatureAxis(_))
+    ));
     let mut values = vec![Vec3::ONE; 6];
     values[4].y = f32::NAN;
     let error = CdrfLut::new(axis, 3, values).unwrap_err();
-    assert_eq!(error.to_string(), "radiance: value 4 is NaN: must be finite and ≥ 0");
+    assert_eq!(
+        error.to_string(),
+        "radiance: value 4 is NaN: must be finite and ≥ 0"
+    );
     let lut = CdrfLut::new(axis, 3, vec![Vec3::ONE; 6]).unwrap();
     assert!(matches!(
         lut.clone().with_coverage(vec![TexelCoverage::default(); 2]),
-        Err(LutError::ShapeMismatch { what: "coverage", .. })
+        Err(LutError::ShapeMismatch {
+            what: "coverage",
+            ..
+        })
     ));
     assert!(matches!(
         ViewCorrection::from_phi(vec![Vec3::splat(-1.0)]),
-        Err(LutError::BadValue { what: "view correction", .. })
+        Err(LutError::BadValue {
+            what: "view correction",
+            ..
+        })
     ));
 }

@@ -22,7 +22,9 @@ fn fitted_like_table() -> CdrfLut {
             relative_spread: (i % 5) as f32 * 0.01,
         })
         .collect();
-    let view: Vec<Vec3> = (0..12).map(|i| Vec3::new(1.0, 1.0 + i as f32 * 0.05, 0.9)).collect();
+    let view: Vec<Vec3> = (0..12)
+        .map(|i| Vec3::new(1.0, 1.0 + i as f32 * 0.05, 0.9))
+        .collect();
     lut.with_coverage(coverage)
         .unwrap()
         .with_view_correction(ViewCorrection::new(4, 3, view).unwrap())
@@ -37,9 +39,15 @@ fn round_trip_keeps_everything() {
     let lut = fitted_like_table();
     write_lut(&lut, &path).unwrap();
     let back = read_lut(&path).unwrap();
-    assert_eq!(back, lut, "the table read back differs from the one written");
+    assert_eq!(
+        back, lut,
+        "the table read back differs from the one written"
+    );
     // No temporary file is left next to it.
-    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
     assert_eq!(names, vec![std::ffi::OsString::from("measured.exr")]);
 
     // Without coverage and with the default view correction too.
@@ -59,10 +67,20 @@ fn an_image_tool_sees_the_table_as_rgb() {
     let layer = image
         .layer_data
         .iter()
-        .find(|l| l.attributes.layer_name.as_ref().is_some_and(|n| n.to_string() == "cdrf.lut"))
+        .find(|l| {
+            l.attributes
+                .layer_name
+                .as_ref()
+                .is_some_and(|n| n.to_string() == "cdrf.lut")
+        })
         .expect("a cdrf.lut layer");
     assert_eq!((layer.size.width(), layer.size.height()), (64, 8));
-    let red = layer.channel_data.list.iter().find(|c| c.name.to_string() == "R").unwrap();
+    let red = layer
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.name.to_string() == "R")
+        .unwrap();
     let values: Vec<f32> = red.sample_data.values_as_f32().collect();
     assert_eq!(values[3 * 64 + 10], lut.row(3)[10].x);
 }
@@ -78,7 +96,10 @@ fn write_bytes(name: &str, bytes: &[u8]) -> (tempfile::TempDir, std::path::PathB
 fn missing_file_names_the_path() {
     let error = read_lut("/nonexistent/measured.exr").unwrap_err();
     assert!(matches!(error, LutFileError::Io { .. }), "{error:?}");
-    assert!(error.to_string().contains("/nonexistent/measured.exr"), "{error}");
+    assert!(
+        error.to_string().contains("/nonexistent/measured.exr"),
+        "{error}"
+    );
 }
 
 #[test]
@@ -106,12 +127,20 @@ fn an_ordinary_exr_image_is_not_a_lut() {
     let path = dir.path().join("photo.exr");
     exr::prelude::write_rgb_file(&path, 4, 3, |x, y| (x as f32, y as f32, 0.0)).unwrap();
     let error = read_lut(&path).unwrap_err();
-    assert!(matches!(error, LutFileError::NotACdrfLut { .. }), "{error:?}");
-    assert!(error.to_string().contains("photo.exr: not a cdrf LUT"), "{error}");
+    assert!(
+        matches!(error, LutFileError::NotACdrfLut { .. }),
+        "{error:?}"
+    );
+    assert!(
+        error.to_string().contains("photo.exr: not a cdrf LUT"),
+        "{error}"
+    );
 }
 
 /// Rewrites one attribute of a valid LUT file's `cdrf.lut` layer.
-fn tampered(edit: impl FnOnce(&mut exr::prelude::LayerAttributes)) -> (tempfile::TempDir, std::path::PathBuf) {
+fn tampered(
+    edit: impl FnOnce(&mut exr::prelude::LayerAttributes),
+) -> (tempfile::TempDir, std::path::PathBuf) {
     use exr::prelude::WritableImage;
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("tampered.exr");
@@ -120,7 +149,12 @@ fn tampered(edit: impl FnOnce(&mut exr::prelude::LayerAttributes)) -> (tempfile:
     let layer = image
         .layer_data
         .iter_mut()
-        .find(|l| l.attributes.layer_name.as_ref().is_some_and(|n| n.to_string() == "cdrf.lut"))
+        .find(|l| {
+            l.attributes
+                .layer_name
+                .as_ref()
+                .is_some_and(|n| n.to_string() == "cdrf.lut")
+        })
         .unwrap();
     edit(&mut layer.attributes);
     image.write().to_file(&path).unwrap();
@@ -131,10 +165,14 @@ fn tampered(edit: impl FnOnce(&mut exr::prelude::LayerAttributes)) -> (tempfile:
 fn a_newer_format_version_is_refused_clearly() {
     use exr::prelude::{AttributeValue, Text};
     let (_dir, path) = tampered(|a| {
-        a.other.insert(Text::from("cdrf.version"), AttributeValue::I32(7));
+        a.other
+            .insert(Text::from("cdrf.version"), AttributeValue::I32(7));
     });
     let error = read_lut(&path).unwrap_err();
-    assert!(matches!(error, LutFileError::UnsupportedVersion { found: 7, .. }), "{error:?}");
+    assert!(
+        matches!(error, LutFileError::UnsupportedVersion { found: 7, .. }),
+        "{error:?}"
+    );
     assert!(error.to_string().contains("version 7"), "{error}");
 }
 
@@ -155,17 +193,26 @@ fn another_axis_convention_is_refused() {
 fn a_wrong_curvature_range_is_refused() {
     use exr::prelude::{AttributeValue, Text};
     let (_dir, path) = tampered(|a| {
-        a.other.insert(Text::from("cdrf.curvature_min_per_mm"), AttributeValue::F32(1.0));
+        a.other.insert(
+            Text::from("cdrf.curvature_min_per_mm"),
+            AttributeValue::F32(1.0),
+        );
     });
     let error = read_lut(&path).unwrap_err();
-    assert!(matches!(error, LutFileError::InvalidTable { .. }), "{error:?}");
+    assert!(
+        matches!(error, LutFileError::InvalidTable { .. }),
+        "{error:?}"
+    );
     assert!(error.to_string().contains("curvature axis"), "{error}");
 }
 
 #[test]
 fn writing_into_a_missing_directory_fails_cleanly() {
     let error = write_lut(&fitted_like_table(), "/nonexistent/dir/measured.exr").unwrap_err();
-    assert!(error.to_string().contains("/nonexistent/dir/measured.exr"), "{error}");
+    assert!(
+        error.to_string().contains("/nonexistent/dir/measured.exr"),
+        "{error}"
+    );
 }
 
 #[test]
@@ -180,5 +227,9 @@ fn a_failed_write_leaves_the_old_file_untouched() {
     });
     assert!(result.is_err());
     assert_eq!(std::fs::read(&path).unwrap(), b"previous contents");
-    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "temporary file left behind");
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "temporary file left behind"
+    );
 }
