@@ -1,6 +1,32 @@
 //! cdrf-core: curvature-dependent reflectance functions (CDRF) without a GPU.
 //!
-//! (Crate docs with a runnable example are written once the modules settle.)
+//! A CDRF f(κ, θ) says how bright a translucent surface point is given its mean curvature κ
+//! (mm⁻¹) and the angle θ between its normal and the light. This crate holds what every cdrf
+//! tool shares: the table [`CdrfLut`] and its OpenEXR file, non-uniform Catmull-Rom splines,
+//! the analytic models (Kubo's Gaussian CDRF, ring pre-integration of diffusion profiles),
+//! meshes and per-vertex curvature. Tables store **π·L/E**: a white Lambertian surface is
+//! `max(cos θ, 0)`, and radiance is `L = E/π · f(κ, θ) · g(θ, φ)`.
+//!
+//! ```
+//! use cdrf_core::gaussian::GaussianCdrf;
+//! use cdrf_core::{CdrfLut, CurvatureAxis, Filter, read_lut, write_lut};
+//!
+//! // Kubo's Gaussian CDRF (σ per RGB channel, mm) tabulated for spheres of radius 50…15 mm.
+//! let model = GaussianCdrf::new([10.5, 6.9, 4.7])?;
+//! let lut = CdrfLut::tabulate(&model, CurvatureAxis::from_radii_mm(50.0, 15.0, 32), 256)?
+//!     .with_provenance("model", "Gaussian CDRF, sigma_mm = [10.5, 6.9, 4.7]");
+//!
+//! // Past the terminator (θ = 100°) a 15 mm sphere still glows, red most.
+//! let f = lut.sample(1.0 / 15.0, 100_f32.to_radians(), Filter::CatmullRom);
+//! assert!(f.x > f.z && f.z > 0.0);
+//!
+//! // The table is an OpenEXR file any image tool opens.
+//! let path = std::env::temp_dir().join(format!("cdrf-doc-{}.exr", std::process::id()));
+//! write_lut(&lut, &path)?;
+//! assert_eq!(read_lut(&path)?, lut);
+//! # std::fs::remove_file(&path)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod atomic;
 pub mod catmull_rom;
