@@ -1,1 +1,520 @@
-//! curvature
+//! Per-vertex mean curvature in mm⁻¹ (Rusinkiewicz 2004), the κ a CDRF table is indexed by.
+//!
+//! ```
+//! use cdrf_core::curvature::{CurvatureOptions, mean_curvature_per_mm};
+//! use cdrf_core::mesh::Mesh;
+//!
+//! // A sphere of radius 2.5 units, modelled in centimetres: r = 25 mm, κ = 1/r = 0.04 mm⁻¹.
+//! let sphere = Mesh::icosphere(2.5, 3);
+//! let options = CurvatureOptions::new(10.0);
+//! let curvature_per_mm = mean_curvature_per_mm(&sphere, &options)?;
+//! assert_eq!(curvature_per_mm.len(), sphere.positions.len());
+//! for &k in &curvature_per_mm {
+//!     assert!((k - 0.04).abs() < 0.04 * 0.01, "{k}");
+//! }
+//! # Ok::<(), cdrf_core::curvature::CurvatureError>(())
+//! ```
+//!
+//! # Method
+//! Szymon Rusinkiewicz, *Estimating Curvatures and Their Derivatives on Triangle Meshes*
+//! (3DPVT 2004), as in his trimesh2, with one addition in step 1:
+//! 1. vertex normals: Max's (1999) weights (face normals weighted per corner by
+//!    `1/(|e₁|²·|e₂|²)`, exact on a sphere), refined by a weighted least-squares quadratic
+//!    height field over the 1-ring, whose normal is exact for any quadric. Max's normals alone
+//!    do not converge on anisotropic 1-rings: on an icosphere scaled to a 3:2:1 ellipsoid the
+//!    maximum curvature error stayed at 10 % under subdivision; refined, it is 1.0 % and
+//!    shrinks ~4× per subdivision;
+//! 2. per face, the second fundamental form `II` (a symmetric 2×2 tensor in the face's frame)
+//!    is the least-squares solution of `II·(eᵢ·t, eᵢ·b) = (Δnᵢ·t, Δnᵢ·b)` over the three edges,
+//!    `Δnᵢ` the difference of the edge's end normals;
+//! 3. per vertex, the face tensors are rotated into the vertex's tangent frame and averaged
+//!    with the Voronoi ("mixed") corner areas of Meyer et al. 2003 as weights.
+//!
+//! Only the mean curvature `H = ½ trace II` is reported. Rotating a tensor between orthonormal
+//! frames leaves its trace unchanged, so step 3 reduces *exactly* to the corner-area-weighted
+//! average of the per-face `½ trace II`: no frames need to be built. Everything runs on the
+//! welded topology (see [`crate::mesh`]) so UV seams do not cut the surface, in f64 inside each
+//! vertex and face. Faces are fitted in parallel; vertices then *gather* from their incident
+//! faces through a vertex → face adjacency (no scatter, no races; the result does not depend on
+//! the thread count).
+//!
+//! # Accuracy (measured, `tests/curvature_analytic.rs`)
+//! RMS / max relative error: icosphere (642 vertices) 0.012 % / 0.028 %; torus R = 3, a = 1 on
+//! a 64 × 32 grid 0.41 % / 1.0 %, 256 × 128 0.026 % / 0.079 %; 3:2:1 ellipsoid icosphere
+//! (10 242 vertices) 0.29 % / 1.0 %. On very fine meshes the f32 positions set the floor
+//! (torus 1024 × 1024: 0.14 % / 1.0 %; one smoothing iteration: 0.08 % / 0.6 %).
+//!
+//! # Sign and units
+//! The estimator reports **signed** values: with outward (counter-clockwise) winding, a sphere
+//! of radius r has H = +1/r; concave regions (the inside of a bowl seen from its normal side)
+//! are negative; saddles have the sign of their average principal curvature. Nothing is clamped:
+//! restricting κ to a table's range is the table's job ([`crate::CdrfLut`]), not this module's.
+//! Values are per millimetre: `κ_mm = κ_units / mm_per_unit`, where `mm_per_unit` says how many
+//! millimetres one model unit is (10 for a model in centimetres).
+//!
+//! # Boundaries and isolated vertices
+//! Boundary vertices average the faces they have (fewer, one-sided: expect a larger error
+//! there). A vertex with no incident face of non-zero area gets 0.
+
+use glam::{DMat3, DVec3, Vec3};
+use rayon::prelude::*;
+use thiserror::Error;
+
+use crate::mesh::{Mesh, VertexFaces};
+
+/// Options for [`mean_curvature_per_mm`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CurvatureOptions {
+    /// Millimetres per model unit (1 for a model in mm, 10 in cm, 1000 in m). Must be finite
+    /// and > 0.
+    pub mm_per_unit: f32,
+    /// Rounds of smoothing after the estimate: each replaces a vertex's value by the average
+    /// over its 1-ring faces' corners, weighted by their Voronoi areas. 0 = none.
+    pub smoothing_iterations: u32,
+}
+
+impl Default for CurvatureOptions {
+    /// A model in millimetres, no smoothing.
+    fn default() -> Self {
+        Self {
+            mm_per_unit: 1.0,
+            smoothing_iterations: 0,
+        }
+    }
+}
+
+impl CurvatureOptions {
+    /// No smoothing, the given scale.
+    pub fn new(mm_per_unit: f32) -> Self {
+        Self {
+            mm_per_unit,
+            ..Self::default()
+        }
+    }
+
+    /// The same options with `iterations` rounds of smoothing.
+    pub fn with_smoothing_iterations(self, iterations: u32) -> Self {
+        Self {
+            smoothing_iterations: iterations,
+            ..self
+        }
+    }
+}
+
+/// Why curvature could not be estimated.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum CurvatureError {
+    /// `mm_per_unit` is zero, negative or not finite.
+    #[error("mm_per_unit {mm_per_unit} must be finite and > 0")]
+    InvalidScale {
+        /// The rejected value.
+        mm_per_unit: f32,
+    },
+    /// A position has a NaN or infinite coordinate.
+    #[error("vertex {vertex} has a non-finite position {position}")]
+    NonFinitePosition {
+        /// The vertex.
+        vertex: usize,
+        /// Its position.
+        position: Vec3,
+    },
+    /// A triangle refers to a vertex that does not exist.
+    #[error("triangle {triangle} refers to vertex {index}, but there are {vertices} vertices")]
+    IndexOutOfRange {
+        /// The triangle.
+        triangle: usize,
+        /// The offending index.
+        index: u32,
+        /// The number of vertices.
+        vertices: usize,
+    },
+}
+
+/// Signed mean curvature in mm⁻¹ for every vertex of `mesh`, estimated on its welded topology
+/// (vertices split at seams get the same value).
+///
+/// # Errors
+/// [`CurvatureError::InvalidScale`] for a bad `mm_per_unit`; [`CurvatureError::NonFinitePosition`]
+/// or [`CurvatureError::IndexOutOfRange`] if the mesh breaks its invariants (a mesh from
+/// [`Mesh::from_data`] or [`Mesh::load`] never does).
+pub fn mean_curvature_per_mm(
+    mesh: &Mesh,
+    options: &CurvatureOptions,
+) -> Result<Vec<f32>, CurvatureError> {
+    check_input(&mesh.positions, &mesh.triangles, options)?;
+    let welded = mesh.weld();
+    let welded_curvature =
+        mean_curvature_per_mm_welded(&welded.positions, &welded.triangles, options)?;
+    Ok(welded.to_mesh_vertices(&welded_curvature))
+}
+
+/// Signed mean curvature in mm⁻¹ for every vertex of an indexed triangle surface, on the
+/// topology **as given**: pass welded positions and triangles ([`Mesh::weld`]); a vertex
+/// duplicated at a seam would only see the faces on its own side.
+///
+/// # Errors
+/// [`CurvatureError::InvalidScale`], [`CurvatureError::NonFinitePosition`],
+/// [`CurvatureError::IndexOutOfRange`].
+pub fn mean_curvature_per_mm_welded(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    options: &CurvatureOptions,
+) -> Result<Vec<f32>, CurvatureError> {
+    check_input(positions, triangles, options)?;
+    let adjacency = VertexFaces::new(positions.len(), triangles);
+
+    let normals: Vec<Vec3> = (0..positions.len())
+        .into_par_iter()
+        .map(|v| vertex_normal(v, adjacency.faces_of(v), positions, triangles))
+        .collect();
+
+    let fits: Vec<FaceFit> = triangles
+        .par_iter()
+        .map(|t| {
+            let p = t.map(|i| positions[i as usize].as_dvec3());
+            let n = t.map(|i| normals[i as usize].as_dvec3());
+            fit_face(p, n)
+        })
+        .collect();
+
+    let mut curvature: Vec<f64> = (0..positions.len())
+        .into_par_iter()
+        .map(|v| {
+            let (mut sum, mut weight) = (0.0, 0.0);
+            for &f in adjacency.faces_of(v) {
+                let fit = &fits[f as usize];
+                let corner = corner_of(triangles[f as usize], v);
+                let w = f64::from(fit.corner_areas[corner]);
+                sum += w * fit.mean_curvature;
+                weight += w;
+            }
+            if weight > 0.0 { sum / weight } else { 0.0 }
+        })
+        .collect();
+
+    for _ in 0..options.smoothing_iterations {
+        curvature = (0..positions.len())
+            .into_par_iter()
+            .map(|v| {
+                let (mut sum, mut weight) = (0.0, 0.0);
+                for &f in adjacency.faces_of(v) {
+                    let t = triangles[f as usize];
+                    for (corner, &w) in fits[f as usize].corner_areas.iter().enumerate() {
+                        let w = f64::from(w);
+                        sum += w * curvature[t[corner] as usize];
+                        weight += w;
+                    }
+                }
+                if weight > 0.0 {
+                    sum / weight
+                } else {
+                    curvature[v]
+                }
+            })
+            .collect();
+    }
+
+    let per_mm = 1.0 / f64::from(options.mm_per_unit);
+    Ok(curvature
+        .into_par_iter()
+        .map(|k| (k * per_mm) as f32)
+        .collect())
+}
+
+fn check_input(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    options: &CurvatureOptions,
+) -> Result<(), CurvatureError> {
+    let mm_per_unit = options.mm_per_unit;
+    if !(mm_per_unit.is_finite() && mm_per_unit > 0.0) {
+        return Err(CurvatureError::InvalidScale { mm_per_unit });
+    }
+    if let Some(vertex) = positions.par_iter().position_first(|p| !p.is_finite()) {
+        return Err(CurvatureError::NonFinitePosition {
+            vertex,
+            position: positions[vertex],
+        });
+    }
+    let vertices = positions.len();
+    if let Some(triangle) = triangles
+        .par_iter()
+        .position_first(|t| t.iter().any(|&i| i as usize >= vertices))
+    {
+        let t = triangles[triangle];
+        let index = t
+            .into_iter()
+            .find(|&i| i as usize >= vertices)
+            .unwrap_or(t[0]);
+        return Err(CurvatureError::IndexOutOfRange {
+            triangle,
+            index,
+            vertices,
+        });
+    }
+    Ok(())
+}
+
+/// Which corner of `t` is vertex `v` (0 if none: never happens for adjacency lists).
+fn corner_of(t: [u32; 3], v: usize) -> usize {
+    if t[0] as usize == v {
+        0
+    } else if t[1] as usize == v {
+        1
+    } else {
+        2
+    }
+}
+
+/// The largest tilt (tan 30°) the height-field fit may apply to Max's normal; beyond it the
+/// 1-ring is not a height field over that plane and Max's normal is kept.
+const MAX_REFINEMENT_SLOPE: f64 = 0.577;
+
+/// Unit vertex normal, zero if the incident faces cancel or are all degenerate.
+///
+/// First Max's (1999) normal: face normals weighted per corner by `1/(|a|²·|b|²)`. It is exact
+/// for vertices on a sphere but converges to the wrong normal on anisotropic 1-rings (measured
+/// on an icosphere scaled to a 3:2:1 ellipsoid: 10 % max curvature error that did not shrink
+/// under subdivision). So it is then refined with a least-squares height field
+/// `z = a x² + b xy + c y² + d x + e y` through the vertex, fitted to the 1-ring in Max's
+/// tangent frame (weighted least squares, weights `1/|q − p|⁶` for neighbour `q`): the fit's
+/// normal `(−d, −e, 1)` is exact for any quadric (ellipsoid max error
+/// 10.6 % → 1.0 %). Max's normal is kept where the fit is under-determined (boundary or
+/// valence < 5), ill-conditioned or implausibly steep.
+fn vertex_normal(v: usize, faces: &[u32], positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec3 {
+    let p = positions[v].as_dvec3();
+    let neighbours = |f: u32| {
+        let t = triangles[f as usize];
+        let corner = corner_of(t, v);
+        [1, 2].map(|k| positions[t[(corner + k) % 3] as usize].as_dvec3() - p)
+    };
+    let mut sum = DVec3::ZERO;
+    let mut length_sum = 0.0;
+    for &f in faces {
+        let [a, b] = neighbours(f);
+        let (a2, b2) = (a.length_squared(), b.length_squared());
+        if a2 * b2 > 0.0 {
+            sum += a.cross(b) / (a2 * b2);
+        }
+        length_sum += a2.sqrt() + b2.sqrt();
+    }
+    let n0 = sum.normalize_or_zero();
+    // Interior neighbours appear twice (once per adjacent face): 2·valence rows, ≥ 5 distinct.
+    let rows = 2 * faces.len();
+    if n0 == DVec3::ZERO || rows < 10 || length_sum <= 0.0 {
+        return n0.as_vec3();
+    }
+    let (t1, t2) = n0.any_orthonormal_pair();
+    // Coordinates in units of the mean edge length keep the normal equations well scaled.
+    let scale = rows as f64 / length_sum;
+    let mut ata = [[0.0f64; 5]; 5];
+    let mut atz = [0.0f64; 5];
+    for &f in faces {
+        for d in neighbours(f) {
+            let d = d * scale;
+            let (x, y, z) = (d.dot(t1), d.dot(t2), d.dot(n0));
+            let row = [x * x, x * y, y * y, x, y];
+            // The residual of a quadratic fit is the cubic remainder, ~|d|³: weight by the
+            // inverse of its variance, 1/|d|⁶ (torus 64 × 32: 0.82 % → 0.41 % RMS).
+            let weight = 1.0 / d.length_squared().powi(3);
+            for i in 0..5 {
+                for j in 0..=i {
+                    ata[i][j] += weight * row[i] * row[j];
+                }
+                atz[i] += weight * row[i] * z;
+            }
+        }
+    }
+    match solve_cholesky_5(&ata, &atz) {
+        Some([.., slope_x, slope_y]) if slope_x.hypot(slope_y) <= MAX_REFINEMENT_SLOPE => {
+            (n0 - slope_x * t1 - slope_y * t2).normalize().as_vec3()
+        }
+        _ => n0.as_vec3(),
+    }
+}
+
+/// Solves `A x = b` for a symmetric positive definite 5×5 `A` given by its lower triangle;
+/// `None` if `A` is (numerically) singular.
+#[allow(clippy::needless_range_loop)] // index notation mirrors the textbook algorithm
+fn solve_cholesky_5(a: &[[f64; 5]; 5], b: &[f64; 5]) -> Option<[f64; 5]> {
+    let mut l = [[0.0f64; 5]; 5];
+    for i in 0..5 {
+        for j in 0..=i {
+            let mut sum = a[i][j];
+            for k in 0..j {
+                sum -= l[i][k] * l[j][k];
+            }
+            if i == j {
+                if sum <= 1e-10 * a[i][i] || sum <= 0.0 {
+                    return None;
+                }
+                l[i][i] = sum.sqrt();
+            } else {
+                l[i][j] = sum / l[j][j];
+            }
+        }
+    }
+    let mut y = [0.0f64; 5];
+    for i in 0..5 {
+        let mut sum = b[i];
+        for k in 0..i {
+            sum -= l[i][k] * y[k];
+        }
+        y[i] = sum / l[i][i];
+    }
+    let mut x = [0.0f64; 5];
+    for i in (0..5).rev() {
+        let mut sum = y[i];
+        for k in i + 1..5 {
+            sum -= l[k][i] * x[k];
+        }
+        x[i] = sum / l[i][i];
+    }
+    Some(x)
+}
+
+/// A face's share of the estimate: ½ trace of its fitted II and its Voronoi corner areas.
+#[derive(Clone, Copy, Debug)]
+struct FaceFit {
+    mean_curvature: f64,
+    corner_areas: [f32; 3],
+}
+
+/// Rusinkiewicz's per-face least-squares fit of the second fundamental form, and the mixed
+/// Voronoi corner areas (Meyer et al. 2003) as trimesh2 computes them.
+fn fit_face(p: [DVec3; 3], n: [DVec3; 3]) -> FaceFit {
+    const NONE: FaceFit = FaceFit {
+        mean_curvature: 0.0,
+        corner_areas: [0.0; 3],
+    };
+    // Edge i is opposite vertex i: e_i = p_{i+2} − p_{i+1}.
+    let e = [p[2] - p[1], p[0] - p[2], p[1] - p[0]];
+    let face_normal = e[0].cross(e[1]);
+    let double_area = face_normal.length();
+    let edge0 = e[0].length();
+    if double_area <= 0.0 || edge0 <= 0.0 || !double_area.is_finite() {
+        return NONE;
+    }
+    let t = e[0] / edge0;
+    let b = face_normal.cross(t).normalize();
+
+    // Normal equations of II·(u, v) = (Δn·t, Δn·b), unknowns (II_tt, II_tb, II_bb).
+    let (mut uu, mut uv, mut vv) = (0.0, 0.0, 0.0);
+    let mut rhs = DVec3::ZERO;
+    for j in 0..3 {
+        let u = e[j].dot(t);
+        let v = e[j].dot(b);
+        uu += u * u;
+        uv += u * v;
+        vv += v * v;
+        let dn = n[(j + 2) % 3] - n[(j + 1) % 3];
+        let (dnu, dnv) = (dn.dot(t), dn.dot(b));
+        rhs += DVec3::new(dnu * u, dnu * v + dnv * u, dnv * v);
+    }
+    let normal_matrix = DMat3::from_cols(
+        DVec3::new(uu, uv, 0.0),
+        DVec3::new(uv, uu + vv, uv),
+        DVec3::new(0.0, uv, vv),
+    );
+    let determinant = normal_matrix.determinant();
+    if determinant.abs() <= f64::EPSILON * (uu + vv).powi(3) {
+        return NONE;
+    }
+    let ii = normal_matrix.inverse() * rhs;
+    let mean_curvature = 0.5 * (ii.x + ii.z);
+
+    // Mixed Voronoi corner areas.
+    let area = 0.5 * double_area;
+    let l2 = e.map(|e| e.length_squared());
+    let ew = [
+        l2[0] * (l2[1] + l2[2] - l2[0]),
+        l2[1] * (l2[2] + l2[0] - l2[1]),
+        l2[2] * (l2[0] + l2[1] - l2[2]),
+    ];
+    let mut corner_areas = [0.0f64; 3];
+    if let Some(obtuse) = (0..3).find(|&i| ew[i] <= 0.0) {
+        let (i1, i2) = ((obtuse + 1) % 3, (obtuse + 2) % 3);
+        corner_areas[i1] = -0.25 * l2[i2] * area / e[obtuse].dot(e[i2]);
+        corner_areas[i2] = -0.25 * l2[i1] * area / e[obtuse].dot(e[i1]);
+        corner_areas[obtuse] = area - corner_areas[i1] - corner_areas[i2];
+    } else {
+        let scale = 0.5 * area / (ew[0] + ew[1] + ew[2]);
+        for (i, c) in corner_areas.iter_mut().enumerate() {
+            *c = scale * (ew[(i + 1) % 3] + ew[(i + 2) % 3]);
+        }
+    }
+    FaceFit {
+        mean_curvature,
+        corner_areas: corner_areas.map(|a| a as f32),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn corner_areas_sum_to_the_triangle_area() {
+        let cases = [
+            // acute, right, obtuse at each corner
+            [
+                DVec3::ZERO,
+                DVec3::new(1.0, 0.0, 0.0),
+                DVec3::new(0.4, 0.9, 0.0),
+            ],
+            [
+                DVec3::ZERO,
+                DVec3::new(1.0, 0.0, 0.0),
+                DVec3::new(0.0, 1.0, 0.0),
+            ],
+            [
+                DVec3::ZERO,
+                DVec3::new(1.0, 0.0, 0.0),
+                DVec3::new(-0.5, 0.2, 0.0),
+            ],
+            [
+                DVec3::ZERO,
+                DVec3::new(1.0, 0.0, 0.0),
+                DVec3::new(1.5, 0.2, 0.0),
+            ],
+            [
+                DVec3::ZERO,
+                DVec3::new(1.0, 0.0, 0.0),
+                DVec3::new(0.5, 0.1, 0.0),
+            ],
+        ];
+        for p in cases {
+            let fit = fit_face(p, [DVec3::Z; 3]);
+            let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+            let sum: f64 = fit.corner_areas.iter().map(|&a| f64::from(a)).sum();
+            assert!((sum - area).abs() < 1e-6 * area, "{p:?}: {sum} vs {area}");
+            assert!(fit.corner_areas.iter().all(|&a| a > 0.0), "{p:?}: {fit:?}");
+            assert_eq!(fit.mean_curvature, 0.0, "flat normals give a flat face");
+        }
+    }
+
+    #[test]
+    fn face_fit_is_exact_for_sphere_normals() {
+        // Normals p/r on a sphere of radius 2: II = I/2 for any triangle on it.
+        let r = 2.0;
+        let p = [
+            DVec3::new(1.0, 0.2, 0.3).normalize() * r,
+            DVec3::new(0.9, 0.5, 0.1).normalize() * r,
+            DVec3::new(0.8, 0.1, 0.6).normalize() * r,
+        ];
+        let fit = fit_face(p, p.map(|p| p / r));
+        assert!(
+            (fit.mean_curvature - 0.5).abs() < 1e-12,
+            "{}",
+            fit.mean_curvature
+        );
+    }
+
+    #[test]
+    fn degenerate_face_contributes_nothing() {
+        let p = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
+        let fit = fit_face(p, [DVec3::Z; 3]);
+        assert_eq!(fit.corner_areas, [0.0; 3]);
+    }
+}

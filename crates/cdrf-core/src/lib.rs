@@ -36,5 +36,7 @@ pub mod lut;
 pub mod lut_file;
 pub mod mesh;
 
+pub use curvature::{CurvatureError, CurvatureOptions, mean_curvature_per_mm};
 pub use lut::{Cdrf, CdrfLut, CurvatureAxis, Filter, ViewCorrection};
 pub use lut_file::{read_lut, write_lut};
+pub use mesh::{LoadError, Mesh, RepairReport};

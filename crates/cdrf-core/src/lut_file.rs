@@ -163,7 +163,7 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
     };
     let find = |name: &str| {
         image.layer_data.iter().find(|layer| {
-            layer.attributes.layer_name.as_ref().map(Text::to_string) == Some(name.into())
+            layer.attributes.layer_name.as_ref().is_some_and(|n| n == name)
         })
     };
     let lut_layer = find(LUT_LAYER).ok_or_else(|| not_ours(format!("no `{LUT_LAYER}` layer")))?;
@@ -216,11 +216,11 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
         count: curvature_count,
     };
     let channels = &lut_layer.channel_data.list;
-    let channel = |name: &str| channels.iter().find(|c| c.name == Text::from(name));
+    let channel = |name: &str| channels.iter().find(|c| c.name == *name);
     let rgb = |layer_name: &str, list: &[AnyChannel<FlatSamples>]| {
         let get = |name: &str| {
             list.iter()
-                .find(|c| c.name == Text::from(name))
+                .find(|c| c.name == *name)
                 .map(|c| c.sample_data.values_as_f32().collect::<Vec<f32>>())
                 .ok_or_else(|| not_ours(format!("layer `{layer_name}` has no channel `{name}`")))
         };

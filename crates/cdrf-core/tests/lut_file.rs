@@ -71,7 +71,7 @@ fn an_image_tool_sees_the_table_as_rgb() {
             l.attributes
                 .layer_name
                 .as_ref()
-                .is_some_and(|n| n.to_string() == "cdrf.lut")
+                .is_some_and(|n| n == "cdrf.lut")
         })
         .expect("a cdrf.lut layer");
     assert_eq!((layer.size.width(), layer.size.height()), (64, 8));
@@ -79,7 +79,7 @@ fn an_image_tool_sees_the_table_as_rgb() {
         .channel_data
         .list
         .iter()
-        .find(|c| c.name.to_string() == "R")
+        .find(|c| c.name == *"R")
         .unwrap();
     let values: Vec<f32> = red.sample_data.values_as_f32().collect();
     assert_eq!(values[3 * 64 + 10], lut.row(3)[10].x);
@@ -153,7 +153,7 @@ fn tampered(
             l.attributes
                 .layer_name
                 .as_ref()
-                .is_some_and(|n| n.to_string() == "cdrf.lut")
+                .is_some_and(|n| n == "cdrf.lut")
         })
         .unwrap();
     edit(&mut layer.attributes);

@@ -1,0 +1,85 @@
+//! OBJ loading through `tobj`.
+
+use std::fs::File;
+use std::io::BufReader;
+use std::path::Path;
+
+use glam::{Vec2, Vec3};
+
+use super::{LoadError, MeshData};
+
+/// Reads every object of an OBJ file into unchecked [`MeshData`].
+pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
+    let file = File::open(path).map_err(|source| LoadError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    let options = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    // Materials are irrelevant here: a loader that fails only records a material error.
+    let (models, _materials) = tobj::load_obj_buf(&mut BufReader::new(file), &options, |_| {
+        Err(tobj::LoadError::OpenFileFailed)
+    })
+    .map_err(|source| LoadError::Obj {
+        path: path.to_owned(),
+        source,
+    })?;
+
+    let mut data = MeshData::default();
+    let mut normals = Vec::new();
+    let mut all_normals = true;
+    let mut uvs = Vec::new();
+    let mut all_uvs = true;
+    for model in &models {
+        let mesh = &model.mesh;
+        let base = data.positions.len();
+        let count = mesh.positions.len() / 3;
+        data.positions.extend(
+            mesh.positions
+                .chunks_exact(3)
+                .map(|p| Vec3::new(p[0], p[1], p[2])),
+        );
+        if mesh.normals.len() == 3 * count {
+            normals.extend(
+                mesh.normals
+                    .chunks_exact(3)
+                    .map(|n| Vec3::new(n[0], n[1], n[2])),
+            );
+        } else {
+            // Mark as missing: computed by the repair step.
+            normals.extend(std::iter::repeat_n(Vec3::ZERO, count));
+            all_normals = false;
+        }
+        if mesh.texcoords.len() == 2 * count {
+            uvs.extend(
+                mesh.texcoords
+                    .chunks_exact(2)
+                    .map(|t| Vec2::new(t[0], 1.0 - t[1])),
+            );
+        } else {
+            all_uvs = false;
+        }
+        // tobj checks indices against the model's own vertices; offset them into the shared
+        // arrays, leaving anything unexpected out of range for the repair step to count.
+        let offset = |i: u32| {
+            if (i as usize) < count {
+                u32::try_from(base + i as usize).unwrap_or(u32::MAX)
+            } else {
+                u32::MAX
+            }
+        };
+        data.triangles.extend(
+            mesh.indices
+                .chunks_exact(3)
+                .map(|t| [offset(t[0]), offset(t[1]), offset(t[2])]),
+        );
+    }
+    let any_normals = normals.iter().any(|&n| n != Vec3::ZERO);
+    data.normals = (all_normals || any_normals).then_some(normals);
+    data.uvs = (all_uvs && !uvs.is_empty()).then_some(uvs);
+    Ok(data)
+}
