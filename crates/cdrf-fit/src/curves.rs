@@ -1,0 +1,557 @@
+//! The φ correction: fitting `L(θ, φ; κ) ≈ f(θ; κ) · g(φ) [· c(θ, φ)]` to every pixel.
+//!
+//! # Model
+//! On a sphere lit at 90° to the view, θ (normal–light) and φ (normal–view) are correlated, so
+//! a curve of radiance against θ alone mixes in the view dependence (the poster's Fig. 2, raw).
+//! We fit, jointly over all spheres k:
+//! - `f_k(θ)`: one curve per sphere, piecewise linear on the table's θ nodes (1° by default);
+//! - `g(φ)`: one view correction **shared by all radii**, piecewise linear on φ nodes over
+//!   [0, 90°], normalised to `g(0) = 1` — the poster's form;
+//! - optionally `c(θ, φ)`: a smooth multiplicative correction on a coarse bilinear grid (10°),
+//!   shared by all radii and pulled toward 1 where the data says nothing
+//!   ([`ViewModel::ThetaPhi`]). Physically the exitant radiance of a diffusing medium is
+//!   `Φ/4π + 3/(4π)·F·ω`: the net flux F points into the surface on the lit side and along it
+//!   near the terminator, so grazing views are relatively brighter on the lit side and darker on
+//!   the shadow side — no single g(φ) can do both.
+//!
+//! # Fit
+//! Alternating weighted least squares, **per pixel**: each sample enters with its exact θ and φ
+//! through the hat functions of the nodes around it (no binning: within a 5° bin the lit side
+//! changes by several percent, which a binned fit would mistake for a φ effect). Weights are
+//! inverse variances: the relative noise of each sphere's 10° θ band is re-estimated from the
+//! residuals (a robust median of absolute deviations) and a sample's weight is
+//! `1 / (noise · model)²`. Samples off their model by more than 6 noise units (glints, dust) are
+//! dropped as outliers. Nodes with no samples (θ near 0° and 180° lie on the silhouette) are
+//! filled by a light first-difference penalty: flat toward the ends, as f's even symmetry about
+//! 0 and π requires, and linear across gaps.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::sphere::Sample;
+
+/// Which view correction to fit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ViewModel {
+    /// The poster's g(φ), shared by all radii.
+    Phi,
+    /// g(φ) times a smooth θ-dependent correction c(θ, φ), shared by all radii.
+    #[default]
+    ThetaPhi,
+}
+
+/// Resolution and model of the fit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CurveSettings {
+    /// θ nodes over [0, π] (the table's columns).
+    pub theta_count: usize,
+    /// φ nodes of g over [0, π/2].
+    pub phi_count: usize,
+    /// Which view correction.
+    pub view_model: ViewModel,
+}
+
+impl Default for CurveSettings {
+    fn default() -> Self {
+        Self {
+            theta_count: 181,
+            phi_count: 19,
+            view_model: ViewModel::default(),
+        }
+    }
+}
+
+/// θ rows and φ columns of the coarse θ-dependent correction c(θ, φ) (10° apart).
+pub const CORRECTION_THETA_COUNT: usize = 19;
+/// See [`CORRECTION_THETA_COUNT`].
+pub const CORRECTION_PHI_COUNT: usize = 10;
+
+/// The samples of one sphere.
+#[derive(Clone, Debug)]
+pub struct SphereSamples {
+    /// κ = 1/r, mm⁻¹.
+    pub curvature_per_mm: f32,
+    /// Width of its image, pixels (to locate [`Sample::pixel`]).
+    pub image_width: u32,
+    /// Its usable pixels.
+    pub samples: Vec<Sample>,
+}
+
+/// The fitted curves and view correction.
+#[derive(Clone, Debug)]
+pub struct CurveFit {
+    /// The settings used.
+    pub settings: CurveSettings,
+    /// f_k(θ) on the θ nodes, per sphere (input order), π·L/E.
+    pub curves: Vec<Vec<Vec3>>,
+    /// Effective number of samples per θ node per sphere (sum of hat weights; 0 = filled).
+    pub node_samples: Vec<Vec<f32>>,
+    /// Relative noise per θ node per sphere (robust, from residuals).
+    pub node_noise: Vec<Vec<f32>>,
+    /// The poster's g(φ) on the φ nodes, g(0) = 1.
+    pub g_phi: Vec<Vec3>,
+    /// c(θ, φ) on the coarse grid (row-major, θ rows), when fitted.
+    pub correction: Option<Vec<Vec3>>,
+    /// Samples dropped as outliers, per sphere.
+    pub outliers: Vec<usize>,
+}
+
+impl CurveFit {
+    /// The full view factor g(φ)·c(θ, φ) at a sample's angles.
+    pub fn view_factor(&self, theta_rad: f32, phi_rad: f32) -> Vec3 {
+        let basis = Basis::new(theta_rad, phi_rad, &self.settings);
+        self.view_factor_at(&basis)
+    }
+
+    fn view_factor_at(&self, basis: &Basis) -> Vec3 {
+        let g = self.g_phi[basis.phi.0] * (1.0 - basis.phi.1) + self.g_phi[basis.phi.0 + 1] * basis.phi.1;
+        match &self.correction {
+            None => g,
+            Some(c) => g * basis.coarse.evaluate(c),
+        }
+    }
+
+    /// The model radiance f_k(θ)·g(φ)·c(θ, φ) of sphere `k`, π·L/E.
+    pub fn model(&self, sphere: usize, theta_rad: f32, phi_rad: f32) -> Vec3 {
+        let basis = Basis::new(theta_rad, phi_rad, &self.settings);
+        hat(&self.curves[sphere], basis.theta) * self.view_factor_at(&basis)
+    }
+}
+
+/// A node index and the weight of the next node: value = v[i]·(1 − t) + v[i + 1]·t.
+type Hat = (usize, f32);
+
+fn hat_coordinate(value: f32, extent: f32, count: usize) -> Hat {
+    let u = (value / extent * (count - 1) as f32).clamp(0.0, (count - 1) as f32);
+    let i = (u as usize).min(count - 2);
+    (i, u - i as f32)
+}
+
+fn hat(values: &[Vec3], (i, t): Hat) -> Vec3 {
+    values[i] * (1.0 - t) + values[i + 1] * t
+}
+
+/// Bilinear coordinates on the coarse correction grid.
+#[derive(Clone, Copy, Debug)]
+struct Coarse {
+    theta: Hat,
+    phi: Hat,
+}
+
+impl Coarse {
+    fn nodes(&self) -> [(usize, f32); 4] {
+        let ((a, ta), (b, tb)) = (self.theta, self.phi);
+        let at = |a: usize, b: usize| a * CORRECTION_PHI_COUNT + b;
+        [
+            (at(a, b), (1.0 - ta) * (1.0 - tb)),
+            (at(a, b + 1), (1.0 - ta) * tb),
+            (at(a + 1, b), ta * (1.0 - tb)),
+            (at(a + 1, b + 1), ta * tb),
+        ]
+    }
+
+    fn evaluate(&self, grid: &[Vec3]) -> Vec3 {
+        self.nodes().iter().map(|&(i, w)| grid[i] * w).sum()
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Basis {
+    theta: Hat,
+    phi: Hat,
+    coarse: Coarse,
+}
+
+impl Basis {
+    fn new(theta_rad: f32, phi_rad: f32, settings: &CurveSettings) -> Self {
+        use std::f32::consts::{FRAC_PI_2, PI};
+        Self {
+            theta: hat_coordinate(theta_rad, PI, settings.theta_count),
+            phi: hat_coordinate(phi_rad, FRAC_PI_2, settings.phi_count),
+            coarse: Coarse {
+                theta: hat_coordinate(theta_rad, PI, CORRECTION_THETA_COUNT),
+                phi: hat_coordinate(phi_rad, FRAC_PI_2, CORRECTION_PHI_COUNT),
+            },
+        }
+    }
+}
+
+/// A sample prepared for the fit.
+#[derive(Clone, Copy, Debug)]
+struct Point {
+    basis: Basis,
+    radiance: Vec3,
+    /// Inverse-variance weight per channel; 0 for an outlier.
+    weight: Vec3,
+    /// Dropped as an outlier (stays dropped).
+    outlier: bool,
+    /// 10° θ band, for the noise estimate.
+    band: u8,
+}
+
+const BANDS: usize = 18;
+
+/// The fit with the requested view model, and the poster's g(φ)-only fit it started from (the
+/// same when the poster's model was requested), so both residuals can be reported.
+#[derive(Clone, Debug)]
+pub struct CurveFits {
+    /// The requested model.
+    pub chosen: CurveFit,
+    /// The poster's model, g(φ) only.
+    pub poster: CurveFit,
+}
+
+/// Fits curves and view correction to the spheres' samples.
+///
+/// # Panics
+/// If `settings` has fewer than 2 θ or φ nodes.
+pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFits {
+    assert!(settings.theta_count >= 2 && settings.phi_count >= 2);
+    let mut points: Vec<Vec<Point>> = spheres
+        .par_iter()
+        .map(|sphere| {
+            sphere
+                .samples
+                .iter()
+                .map(|s| Point {
+                    basis: Basis::new(s.theta_rad, s.phi_rad, &settings),
+                    radiance: s.radiance,
+                    weight: Vec3::ONE,
+                    outlier: false,
+                    band: ((s.theta_rad.to_degrees() / 10.0) as usize).min(BANDS - 1) as u8,
+                })
+                .collect()
+        })
+        .collect();
+
+    let mut fit = CurveFit {
+        settings,
+        curves: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
+        node_samples: vec![vec![0.0; settings.theta_count]; spheres.len()],
+        node_noise: vec![vec![0.0; settings.theta_count]; spheres.len()],
+        g_phi: vec![Vec3::ONE; settings.phi_count],
+        correction: None,
+        outliers: vec![0; spheres.len()],
+    };
+
+    // Unweighted start, then inverse-variance weights, outlier rejection, and the θ-dependent
+    // correction last (it only refines what the poster's model leaves).
+    let mut noise = vec![[Vec3::ONE; BANDS]; spheres.len()];
+    // (re-estimate weights first, and drop outliers while doing so)
+    let stages = [
+        (false, false),
+        (false, false),
+        (true, false),
+        (true, true),
+        (true, false),
+        (false, false),
+    ];
+    for (reweight, reject) in stages {
+        if reweight {
+            reweight_points(&fit, &mut points, &mut noise, reject);
+        }
+        fit_f(&mut fit, &points);
+        fit_g(&mut fit, &points);
+    }
+    let poster = finish(
+        CurveFit {
+            settings: CurveSettings {
+                view_model: ViewModel::Phi,
+                ..settings
+            },
+            ..fit.clone()
+        },
+        &points,
+        &noise,
+    );
+    if settings.view_model == ViewModel::Phi {
+        return CurveFits {
+            chosen: poster.clone(),
+            poster,
+        };
+    }
+    fit.correction = Some(vec![Vec3::ONE; CORRECTION_THETA_COUNT * CORRECTION_PHI_COUNT]);
+    for round in 0..4 {
+        fit_correction(&mut fit, &points);
+        fit_f(&mut fit, &points);
+        fit_g(&mut fit, &points);
+        if round == 1 {
+            reweight_points(&fit, &mut points, &mut noise, false);
+        }
+    }
+    CurveFits {
+        chosen: finish(fit, &points, &noise),
+        poster,
+    }
+}
+
+/// Fills in the per-node sample counts, noise and outlier counts.
+fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> CurveFit {
+    let theta_count = fit.settings.theta_count;
+    for (k, sphere_points) in points.iter().enumerate() {
+        fit.outliers[k] = sphere_points.iter().filter(|p| p.outlier).count();
+        let mut counts = vec![0.0_f32; theta_count];
+        for p in sphere_points {
+            let (a, t) = p.basis.theta;
+            counts[a] += 1.0 - t;
+            counts[a + 1] += t;
+        }
+        fit.node_samples[k] = counts;
+        fit.node_noise[k] = (0..theta_count)
+            .map(|a| {
+                let theta_deg = 180.0 * a as f32 / (theta_count - 1) as f32;
+                let band = ((theta_deg / 10.0) as usize).min(BANDS - 1);
+                noise[k][band].element_sum() / 3.0
+            })
+            .collect();
+    }
+    fit
+}
+
+/// Re-estimates each band's relative noise from the residuals and sets inverse-variance
+/// weights (optionally dropping outliers).
+fn reweight_points(fit: &CurveFit, points: &mut [Vec<Point>], noise: &mut [[Vec3; BANDS]], reject: bool) {
+    points
+        .par_iter_mut()
+        .zip(noise.par_iter_mut())
+        .enumerate()
+        .for_each(|(k, (sphere_points, noise))| {
+            let peak = fit.curves[k].iter().fold(Vec3::ZERO, |m, v| m.max(*v));
+            let floor = (peak * 1e-4).max(Vec3::splat(1e-12));
+            let model = |p: &Point| (hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(&p.basis)).max(floor);
+            let mut deviations: Vec<Vec<[f32; 3]>> = vec![Vec::new(); BANDS];
+            for p in sphere_points.iter() {
+                let relative = (p.radiance / model(p) - Vec3::ONE).abs();
+                deviations[p.band as usize].push(relative.to_array());
+            }
+            for (band, values) in deviations.iter_mut().enumerate() {
+                if values.len() < 16 {
+                    continue;
+                }
+                let mut estimate = [0.0_f32; 3];
+                for (channel, slot) in estimate.iter_mut().enumerate() {
+                    let mut column: Vec<f32> = values.iter().map(|v| v[channel]).collect();
+                    let middle = column.len() / 2;
+                    let (_, median, _) = column.select_nth_unstable_by(middle, f32::total_cmp);
+                    *slot = (1.4826 * *median).max(2e-3);
+                }
+                noise[band] = Vec3::from_array(estimate);
+            }
+            for p in sphere_points.iter_mut() {
+                let m = model(p);
+                let sigma = noise[p.band as usize] * m;
+                p.outlier |= reject && (p.radiance - m).abs().cmpgt(sigma * 6.0).any();
+                p.weight = if p.outlier {
+                    Vec3::ZERO
+                } else {
+                    Vec3::ONE / (sigma * sigma)
+                };
+            }
+        });
+}
+
+/// Solves a symmetric tridiagonal system in place (Thomas algorithm), per channel.
+fn solve_tridiagonal(diagonal: &mut [Vec3], upper: &mut [Vec3], rhs: &mut [Vec3]) -> Vec<Vec3> {
+    let n = diagonal.len();
+    for i in 1..n {
+        let factor = upper[i - 1] / diagonal[i - 1];
+        diagonal[i] -= factor * upper[i - 1];
+        rhs[i] = rhs[i] - factor * rhs[i - 1];
+    }
+    let mut x = vec![Vec3::ZERO; n];
+    x[n - 1] = rhs[n - 1] / diagonal[n - 1];
+    for i in (0..n - 1).rev() {
+        x[i] = (rhs[i] - upper[i] * x[i + 1]) / diagonal[i];
+    }
+    x
+}
+
+/// Adds the first-difference penalty that fills empty nodes and steadies sparse ones: its
+/// strength follows the local data (1e-3 of the nearest non-empty diagonal).
+fn add_smoothness(diagonal: &mut [Vec3], upper: &mut [Vec3]) {
+    let n = diagonal.len();
+    let mut scale: Vec<Vec3> = diagonal.to_vec();
+    // Spread the nearest non-empty diagonal into empty nodes, per channel, both directions.
+    let mut last = Vec3::ZERO;
+    for value in scale.iter_mut() {
+        last = Vec3::select(value.cmpgt(Vec3::ZERO), *value, last);
+        *value = last;
+    }
+    last = Vec3::ZERO;
+    for value in scale.iter_mut().rev() {
+        last = Vec3::select(value.cmpgt(Vec3::ZERO), *value, last);
+        *value = Vec3::select(value.cmpgt(Vec3::ZERO), *value, last);
+    }
+    for i in 0..n - 1 {
+        let lambda = (scale[i].min(scale[i + 1]) * 1e-3).max(Vec3::splat(1e-30));
+        diagonal[i] += lambda;
+        diagonal[i + 1] += lambda;
+        upper[i] -= lambda;
+    }
+}
+
+fn fit_f(fit: &mut CurveFit, points: &[Vec<Point>]) {
+    let n = fit.settings.theta_count;
+    let curves: Vec<Vec<Vec3>> = points
+        .par_iter()
+        .map(|sphere_points| {
+            let (mut diagonal, mut upper, mut rhs) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+            for p in sphere_points {
+                let view = fit.view_factor_at(&p.basis);
+                let (a, t) = p.basis.theta;
+                let (b0, b1) = (1.0 - t, t);
+                let wv = p.weight * view;
+                let wvv = wv * view;
+                diagonal[a] += wvv * (b0 * b0);
+                diagonal[a + 1] += wvv * (b1 * b1);
+                upper[a] += wvv * (b0 * b1);
+                rhs[a] += wv * p.radiance * b0;
+                rhs[a + 1] += wv * p.radiance * b1;
+            }
+            add_smoothness(&mut diagonal, &mut upper);
+            solve_tridiagonal(&mut diagonal, &mut upper, &mut rhs)
+                .into_iter()
+                .map(|v| v.max(Vec3::ZERO))
+                .collect()
+        })
+        .collect();
+    fit.curves = curves;
+}
+
+fn fit_g(fit: &mut CurveFit, points: &[Vec<Point>]) {
+    let n = fit.settings.phi_count;
+    let zero = || (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+    let (mut diagonal, mut upper, mut rhs) = points
+        .par_iter()
+        .enumerate()
+        .map(|(k, sphere_points)| {
+            let (mut diagonal, mut upper, mut rhs) = zero();
+            for p in sphere_points {
+                let mut f = hat(&fit.curves[k], p.basis.theta);
+                if let Some(c) = &fit.correction {
+                    f *= p.basis.coarse.evaluate(c);
+                }
+                let (b, t) = p.basis.phi;
+                let (b0, b1) = (1.0 - t, t);
+                let wf = p.weight * f;
+                let wff = wf * f;
+                diagonal[b] += wff * (b0 * b0);
+                diagonal[b + 1] += wff * (b1 * b1);
+                upper[b] += wff * (b0 * b1);
+                rhs[b] += wf * p.radiance * b0;
+                rhs[b + 1] += wf * p.radiance * b1;
+            }
+            (diagonal, upper, rhs)
+        })
+        .reduce(zero, |mut a, b| {
+            for i in 0..n {
+                a.0[i] += b.0[i];
+                a.1[i] += b.1[i];
+                a.2[i] += b.2[i];
+            }
+            a
+        });
+    add_smoothness(&mut diagonal, &mut upper);
+    let g = solve_tridiagonal(&mut diagonal, &mut upper, &mut rhs);
+    let g0 = g[0];
+    if g0.min_element() > 0.0 && g0.is_finite() {
+        fit.g_phi = g.iter().map(|v| (*v / g0).max(Vec3::ZERO)).collect();
+        for curve in &mut fit.curves {
+            for value in curve.iter_mut() {
+                *value *= g0;
+            }
+        }
+    }
+}
+
+/// Fits c(θ, φ) (dense normal equations on the coarse grid, ridge toward 1 and a smoothness
+/// penalty between neighbours, both scaled to the data).
+fn fit_correction(fit: &mut CurveFit, points: &[Vec<Point>]) {
+    const N: usize = CORRECTION_THETA_COUNT * CORRECTION_PHI_COUNT;
+    let zero = || (vec![[Vec3::ZERO; N]; N], vec![Vec3::ZERO; N]);
+    let (mut matrix, mut rhs) = points
+        .par_iter()
+        .enumerate()
+        .map(|(k, sphere_points)| {
+            let (mut matrix, mut rhs) = zero();
+            for p in sphere_points {
+                let (a, t) = p.basis.phi;
+                let g = fit.g_phi[a] * (1.0 - t) + fit.g_phi[a + 1] * t;
+                let fg = hat(&fit.curves[k], p.basis.theta) * g;
+                let wfg = p.weight * fg;
+                let nodes = p.basis.coarse.nodes();
+                for &(i, wi) in &nodes {
+                    rhs[i] += wfg * p.radiance * wi;
+                    for &(j, wj) in &nodes {
+                        matrix[i][j] += wfg * fg * (wi * wj);
+                    }
+                }
+            }
+            (matrix, rhs)
+        })
+        .reduce(zero, |mut a, b| {
+            for i in 0..N {
+                a.1[i] += b.1[i];
+                for j in 0..N {
+                    a.0[i][j] += b.0[i][j];
+                }
+            }
+            a
+        });
+    let mean_diagonal = (0..N).map(|i| matrix[i][i]).sum::<Vec3>() / N as f32;
+    let ridge = mean_diagonal * 1e-3;
+    let smooth = mean_diagonal * 1e-2;
+    for i in 0..N {
+        matrix[i][i] += ridge;
+        rhs[i] += ridge;
+        let (row, column) = (i / CORRECTION_PHI_COUNT, i % CORRECTION_PHI_COUNT);
+        let mut neighbours = Vec::with_capacity(2);
+        if column + 1 < CORRECTION_PHI_COUNT {
+            neighbours.push(i + 1);
+        }
+        if row + 1 < CORRECTION_THETA_COUNT {
+            neighbours.push(i + CORRECTION_PHI_COUNT);
+        }
+        for j in neighbours {
+            matrix[i][i] += smooth;
+            matrix[j][j] += smooth;
+            matrix[i][j] -= smooth;
+            matrix[j][i] -= smooth;
+        }
+    }
+    if let Some(solution) = solve_dense(matrix, rhs) {
+        fit.correction = Some(solution.into_iter().map(|v| v.max(Vec3::splat(0.05))).collect());
+    }
+}
+
+/// Gaussian elimination with partial pivoting, per channel.
+fn solve_dense<const N: usize>(matrix: Vec<[Vec3; N]>, rhs: Vec<Vec3>) -> Option<Vec<Vec3>> {
+    let mut solution = vec![Vec3::ZERO; N];
+    for channel in 0..3 {
+        let mut a: Vec<Vec<f64>> = matrix.iter().map(|row| row.iter().map(|v| v[channel] as f64).collect()).collect();
+        let mut b: Vec<f64> = rhs.iter().map(|v| v[channel] as f64).collect();
+        for column in 0..N {
+            let pivot = (column..N).max_by(|&i, &j| a[i][column].abs().total_cmp(&a[j][column].abs()))?;
+            if a[pivot][column].abs() < 1e-300 {
+                return None;
+            }
+            a.swap(column, pivot);
+            b.swap(column, pivot);
+            for row in column + 1..N {
+                let factor = a[row][column] / a[column][column];
+                if factor != 0.0 {
+                    for k in column..N {
+                        a[row][k] -= factor * a[column][k];
+                    }
+                    b[row] -= factor * b[column];
+                }
+            }
+        }
+        for row in (0..N).rev() {
+            let sum: f64 = (row + 1..N).map(|k| a[row][k] * solution[k][channel] as f64).sum();
+            solution[row][channel] = ((b[row] - sum) / a[row][row]) as f32;
+        }
+    }
+    Some(solution)
+}

@@ -1,0 +1,161 @@
+//! `cdrf-fit DIR --out OUTDIR`: a measured CDRF from a folder of sphere photographs.
+//!
+//! Reads `DIR/cdrf-dataset.toml`, fits, and writes `measured.exr`, `gaussian.toml`,
+//! `report.json` and plots into `OUTDIR` (see `cdrf_fit::outputs`). The input folder is never
+//! written to.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, bail};
+use cdrf_fit::curves::ViewModel;
+use cdrf_fit::dataset::Dataset;
+use cdrf_fit::fit::Progress;
+use cdrf_fit::outputs::{Report, view_model_name, write_outputs};
+use cdrf_fit::{FitOptions, fit_dataset};
+use clap::{Parser, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// Fit a measured curvature-dependent reflectance function (CDRF) look-up table to
+/// photographs of spheres of several radii lit by one directional light.
+///
+/// DIR must hold a manifest, cdrf-dataset.toml, naming the images, their sphere radii (mm),
+/// the camera and the light (see the README). OUTDIR receives measured.exr (the LUT),
+/// gaussian.toml (Kubo's Gaussian CDRF fitted to the same photos), report.json and plots.
+#[derive(Debug, Parser)]
+#[command(name = "cdrf-fit", version)]
+struct Args {
+    /// Data set folder containing cdrf-dataset.toml.
+    dir: PathBuf,
+    /// Output folder (created if missing; files in it are replaced atomically).
+    #[arg(long, value_name = "OUTDIR")]
+    out: PathBuf,
+    /// View correction: the poster's g(φ) shared by all radii, or g(φ) times a smooth
+    /// θ-dependent correction (lower residual on translucent materials).
+    #[arg(long, value_enum, default_value_t = ViewModelArg::ThetaPhi)]
+    view_model: ViewModelArg,
+    /// Columns of the table over θ ∈ [0°, 180°] (181 = 1° apart).
+    #[arg(long, default_value_t = 181)]
+    theta_count: usize,
+    /// Rows of the table over the measured curvature range.
+    #[arg(long, default_value_t = 64)]
+    curvature_count: usize,
+    /// Print nothing but errors (and the --json summary).
+    #[arg(long, short)]
+    quiet: bool,
+    /// Print a JSON summary on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum ViewModelArg {
+    /// g(φ) only (the poster).
+    Phi,
+    /// g(φ)·c(θ, φ).
+    ThetaPhi,
+}
+
+fn main() -> ExitCode {
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("error: {error}");
+            for cause in error.chain().skip(1) {
+                eprintln!("  caused by: {cause}");
+            }
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: Args) -> anyhow::Result<()> {
+    if args.theta_count < 19 {
+        bail!("--theta-count {}: need at least 19 (10° apart)", args.theta_count);
+    }
+    if args.curvature_count < 2 {
+        bail!("--curvature-count {}: need at least 2", args.curvature_count);
+    }
+    let mut options = FitOptions::default();
+    options.curves.theta_count = args.theta_count;
+    options.curves.view_model = match args.view_model {
+        ViewModelArg::Phi => ViewModel::Phi,
+        ViewModelArg::ThetaPhi => ViewModel::ThetaPhi,
+    };
+    options.curvature_count = args.curvature_count;
+
+    let dataset = Dataset::load(&args.dir)?;
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        let bar = ProgressBar::new(dataset.spheres.len() as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{bar:30} {pos}/{len} spheres {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar
+    };
+    if dataset.spheres.len() == 1 && !args.quiet {
+        eprintln!(
+            "note: one sphere: the table can only be that sphere's curve at every curvature (no curvature dependence); use several radii for a CDRF"
+        );
+    }
+    let fit = fit_dataset(&dataset, &options, |progress| match progress {
+        Progress::SphereSampled { index, .. } => {
+            bar.set_position(index as u64 + 1);
+            bar.set_message(dataset.spheres[index].image_name.clone());
+        }
+        Progress::Fitting => bar.set_message("fitting"),
+    })
+    .with_context(|| format!("fitting {}", dataset.manifest.display()))?;
+    bar.finish_and_clear();
+
+    let written = write_outputs(&fit, &dataset.dir, &args.out)
+        .with_context(|| format!("writing outputs to {}", args.out.display()))?;
+
+    if !args.quiet {
+        let sigma = fit.gaussian.model.sigma_mm();
+        eprintln!(
+            "fitted {} spheres (r = {}) in {:.2} s ({:.2} s decoding); view model {}",
+            fit.spheres.len(),
+            fit.spheres
+                .iter()
+                .map(|s| format!("{}", s.radius_mm))
+                .collect::<Vec<_>>()
+                .join(", "),
+            fit.timings.total_s,
+            fit.timings.decode_s,
+            view_model_name(options.curves.view_model),
+        );
+        eprintln!("radius  measured error  Gaussian error   (mean relative, lit + terminator, 8×8 px blocks)");
+        for (sphere, errors) in fit.spheres.iter().zip(&fit.errors) {
+            eprintln!(
+                "{:>4} mm  {:>12.2} %  {:>12.2} %",
+                sphere.radius_mm,
+                100.0 * errors.measured.lit_and_terminator.mean_relative_error,
+                100.0 * errors.gaussian.lit_and_terminator.mean_relative_error,
+            );
+        }
+        eprintln!(
+            "Gaussian CDRF: sigma_mm = [{:.2}, {:.2}, {:.2}]",
+            sigma[0], sigma[1], sigma[2]
+        );
+        for path in &written {
+            eprintln!("wrote {}", path.display());
+        }
+    }
+    if args.json {
+        let report = Report::new(&fit, &dataset.dir);
+        let summary = serde_json::json!({
+            "outputs": written,
+            "spheres": fit.spheres.len(),
+            "view_model": report.view_model,
+            "gaussian": report.gaussian,
+            "measured_error_lit_and_terminator": fit.errors.iter().map(|e| e.measured.lit_and_terminator.mean_relative_error).collect::<Vec<_>>(),
+            "gaussian_error_lit_and_terminator": fit.errors.iter().map(|e| e.gaussian.lit_and_terminator.mean_relative_error).collect::<Vec<_>>(),
+            "timings": report.timings,
+        });
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    }
+    Ok(())
+}

@@ -1,0 +1,404 @@
+//! The files `cdrf-fit` writes. Their names are a contract other tools rely on:
+//!
+//! | file | content |
+//! |---|---|
+//! | `measured.exr` | the measured LUT ([`cdrf_core::lut_file`]) |
+//! | `gaussian.toml` | the fitted Gaussian CDRF: `sigma_mm`, `scale` per RGB channel ([`GaussianParameters`]) |
+//! | `report.json` | per-radius curves, sample counts, residuals, g(φ), errors, timings ([`Report`]) |
+//! | `radiance_vs_theta.svg` | radiance against θ per radius, raw (all φ) and φ-corrected: the poster's Fig. 2 |
+//! | `view_correction.svg` | g(φ), and the θ-dependent correction at a few θ |
+//! | `lut.png` | a picture of the table (θ across, κ down, sRGB, exposure ×1) |
+//!
+//! Every file is written atomically (temporary file, then rename).
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use cdrf_core::lut::theta_rad_at;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use crate::curves::{CORRECTION_PHI_COUNT, ViewModel};
+use crate::evaluate::SphereError;
+use crate::fit::{Fit, ModelErrors, SphereReport, Timings};
+use crate::table::smooth_curve;
+use crate::plot::{Colormap, LinePlot, LineStyle, Series, rgb_png_srgb, upscale_nearest};
+
+/// The measured LUT.
+pub const MEASURED_LUT: &str = "measured.exr";
+/// The fitted Gaussian CDRF.
+pub const GAUSSIAN: &str = "gaussian.toml";
+/// The report.
+pub const REPORT: &str = "report.json";
+/// Radiance against θ per radius.
+pub const RADIANCE_PLOT: &str = "radiance_vs_theta.svg";
+/// The view correction.
+pub const VIEW_PLOT: &str = "view_correction.svg";
+/// The table as a picture.
+pub const LUT_PICTURE: &str = "lut.png";
+
+/// `gaussian.toml`: Kubo's Gaussian CDRF fitted to the same photographs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GaussianParameters {
+    /// Standard deviation of the scattering Gaussian per RGB channel, mm (angular width σ·κ).
+    pub sigma_mm: [f32; 3],
+    /// Overall factor per channel (the material's albedo under the LUT convention π·L/E).
+    pub scale: [f32; 3],
+    /// The view correction the fit used, as stored in the measured LUT (`measured.exr`).
+    pub view_correction: String,
+}
+
+/// Why writing outputs failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum OutputError {
+    /// The output folder could not be created or a file not written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The LUT could not be written.
+    #[error(transparent)]
+    Lut(#[from] cdrf_core::lut_file::LutFileError),
+    /// The output folder is the input folder (the input folder is never written to).
+    #[error("{}: the output folder must not be the data set folder", path.display())]
+    IntoInput {
+        /// The folder.
+        path: PathBuf,
+    },
+}
+
+/// One sphere in the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReportSphere {
+    /// What happened while reading it.
+    #[serde(flatten)]
+    pub sphere: SphereReport,
+    /// Errors of the models on it (8 × 8 px blocks; see `cdrf_fit::evaluate`).
+    pub errors: ModelErrors,
+    /// θ (degrees) of the curves below.
+    pub theta_deg: Vec<f32>,
+    /// Mean π·L/E of all samples in 1° θ bins, all φ mixed (NaN-free: empty bins are null).
+    pub raw_curve: Vec<Option<[f32; 3]>>,
+    /// The φ-corrected curve f(θ) on the table's θ nodes, filled and smoothed as it enters the
+    /// table.
+    pub corrected_curve: Vec<[f32; 3]>,
+    /// Effective samples per θ node (0: filled, not measured).
+    pub samples_per_node: Vec<f32>,
+}
+
+/// `report.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    /// cdrf-fit's version.
+    pub tool_version: &'static str,
+    /// The data set folder.
+    pub dataset: PathBuf,
+    /// The view model of the table.
+    pub view_model: ViewModel,
+    /// The table's shape.
+    pub table: TableSummary,
+    /// Per sphere.
+    pub spheres: Vec<ReportSphere>,
+    /// The poster's g(φ) (φ in degrees, RGB).
+    pub g_phi: Vec<(f32, [f32; 3])>,
+    /// The θ-dependent correction c(θ, φ) (θ rows 10° apart, φ columns 10° apart), when fitted.
+    pub theta_phi_correction: Option<Vec<Vec<[f32; 3]>>>,
+    /// Residuals of the two view models, summed over spheres.
+    pub view_model_residuals: ViewResiduals,
+    /// The fitted Gaussian CDRF.
+    pub gaussian: GaussianSummary,
+    /// Where the time went, seconds.
+    pub timings: Timings,
+}
+
+/// The table's shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct TableSummary {
+    /// κ of the first row, mm⁻¹.
+    pub curvature_min_per_mm: f32,
+    /// κ of the last row, mm⁻¹.
+    pub curvature_max_per_mm: f32,
+    /// Rows.
+    pub curvature_count: usize,
+    /// θ columns over [0, 180°].
+    pub theta_count: usize,
+}
+
+/// The Gaussian fit in the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct GaussianSummary {
+    /// σ per channel, mm.
+    pub sigma_mm: [f32; 3],
+    /// Scale per channel.
+    pub scale: [f32; 3],
+    /// √(Σ residual² / Σ L²) over all samples, per channel.
+    pub relative_rms: [f32; 3],
+}
+
+/// Residuals of the curve fit, lit and terminator blocks of all spheres.
+#[derive(Clone, Debug, Serialize)]
+pub struct ViewResiduals {
+    /// The poster's g(φ): mean relative error per sphere.
+    pub phi: Vec<f32>,
+    /// With the θ-dependent correction (same as `phi` when not fitted).
+    pub theta_phi: Vec<f32>,
+}
+
+fn lit_and_terminator(error: &SphereError) -> f32 {
+    error.lit_and_terminator.mean_relative_error
+}
+
+impl Report {
+    /// The report of a fit of the data set in `dataset`.
+    pub fn new(fit: &Fit, dataset: &Path) -> Self {
+        let settings = fit.curves.chosen.settings;
+        let theta_deg: Vec<f32> = (0..settings.theta_count)
+            .map(|a| theta_rad_at(a, settings.theta_count).to_degrees())
+            .collect();
+        let spheres = fit
+            .spheres
+            .iter()
+            .zip(&fit.errors)
+            .enumerate()
+            .map(|(k, (sphere, errors))| {
+                let mut sums = vec![(Vec3::ZERO, 0_u32); 181];
+                for s in &fit.samples[k].samples {
+                    let bin = (s.theta_rad.to_degrees().round() as usize).min(180);
+                    sums[bin].0 += s.radiance;
+                    sums[bin].1 += 1;
+                }
+                ReportSphere {
+                    sphere: sphere.clone(),
+                    errors: errors.clone(),
+                    theta_deg: theta_deg.clone(),
+                    raw_curve: sums
+                        .iter()
+                        .map(|(sum, n)| (*n > 0).then(|| (*sum / *n as f32).to_array()))
+                        .collect(),
+                    corrected_curve: smooth_curve(&fit.curves.chosen, k).iter().map(|v| v.to_array()).collect(),
+                    samples_per_node: fit.curves.chosen.node_samples[k].clone(),
+                }
+            })
+            .collect();
+        let g_phi = fit
+            .curves
+            .chosen
+            .g_phi
+            .iter()
+            .enumerate()
+            .map(|(i, g)| (90.0 * i as f32 / (settings.phi_count - 1) as f32, g.to_array()))
+            .collect();
+        let theta_phi_correction = fit.curves.chosen.correction.as_ref().map(|grid| {
+            grid.chunks(CORRECTION_PHI_COUNT)
+                .map(|row| row.iter().map(|v| v.to_array()).collect())
+                .collect()
+        });
+        let axis = fit.lut.curvature_axis();
+        Self {
+            tool_version: env!("CARGO_PKG_VERSION"),
+            dataset: dataset.to_path_buf(),
+            view_model: settings.view_model,
+            table: TableSummary {
+                curvature_min_per_mm: axis.min_per_mm,
+                curvature_max_per_mm: axis.max_per_mm,
+                curvature_count: axis.count,
+                theta_count: fit.lut.theta_count(),
+            },
+            spheres,
+            g_phi,
+            theta_phi_correction,
+            view_model_residuals: ViewResiduals {
+                phi: fit.errors.iter().map(|e| lit_and_terminator(&e.poster_view_fit)).collect(),
+                theta_phi: fit.errors.iter().map(|e| lit_and_terminator(&e.chosen_view_fit)).collect(),
+            },
+            gaussian: GaussianSummary {
+                sigma_mm: fit.gaussian.model.sigma_mm(),
+                scale: fit.gaussian.model.scale(),
+                relative_rms: fit.gaussian.relative_rms,
+            },
+            timings: fit.timings,
+        }
+    }
+}
+
+fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    cdrf_core::atomic::write_file(path, |file| file.write_all(bytes)).map_err(|source| OutputError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Writes every output of `fit` into `out_dir` (created if missing). Returns the files written.
+///
+/// # Errors
+/// When `out_dir` is the data set folder, or a file cannot be written.
+pub fn write_outputs(fit: &Fit, dataset_dir: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, OutputError> {
+    std::fs::create_dir_all(out_dir).map_err(|source| OutputError::Io {
+        path: out_dir.to_path_buf(),
+        source,
+    })?;
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    if same(out_dir, dataset_dir) {
+        return Err(OutputError::IntoInput {
+            path: out_dir.to_path_buf(),
+        });
+    }
+    let view_model = fit.curves.chosen.settings.view_model;
+    let lut = fit
+        .lut
+        .clone()
+        .with_provenance("tool", format!("cdrf-fit {}", env!("CARGO_PKG_VERSION")))
+        .with_provenance("dataset", dataset_dir.display().to_string())
+        .with_provenance("view_model", view_model_name(view_model));
+    let lut_path = out_dir.join(MEASURED_LUT);
+    cdrf_core::lut_file::write_lut(&lut, &lut_path)?;
+    let mut written = vec![lut_path];
+    let mut put = |name: &str, bytes: &[u8]| -> Result<(), OutputError> {
+        let path = out_dir.join(name);
+        write_bytes(&path, bytes)?;
+        written.push(path);
+        Ok(())
+    };
+
+
+    let gaussian = GaussianParameters {
+        sigma_mm: fit.gaussian.model.sigma_mm(),
+        scale: fit.gaussian.model.scale(),
+        view_correction: format!("{} (the g stored in {MEASURED_LUT})", view_model_name(view_model)),
+    };
+    let toml = format!(
+        "# Kubo et al. 2010 Gaussian CDRF fitted by cdrf-fit to the same photographs as {MEASURED_LUT}.\n\
+         # Radiance: L = E/pi * scale * (cos+ convolved with a Gaussian of angular width sigma_mm * curvature) * g.\n{}",
+        toml::to_string(&gaussian).unwrap_or_default()
+    );
+    put(GAUSSIAN, toml.as_bytes())?;
+
+    let report = Report::new(fit, dataset_dir);
+    let json = serde_json::to_vec_pretty(&report).map_err(|e| OutputError::Io {
+        path: out_dir.join(REPORT),
+        source: e.into(),
+    })?;
+    put(REPORT, &json)?;
+    put(RADIANCE_PLOT, radiance_plot(fit).as_bytes())?;
+    put(VIEW_PLOT, view_plot(fit).as_bytes())?;
+
+    let picture = lut_picture(fit);
+    let mut png = Vec::new();
+    picture
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .map_err(|e| OutputError::Io {
+            path: out_dir.join(LUT_PICTURE),
+            source: std::io::Error::other(e),
+        })?;
+    put(LUT_PICTURE, &png)?;
+    Ok(written)
+}
+
+/// The manifest/CLI name of a view model.
+pub fn view_model_name(model: ViewModel) -> &'static str {
+    match model {
+        ViewModel::Phi => "phi",
+        ViewModel::ThetaPhi => "theta-phi",
+    }
+}
+
+fn radius_color(fit: &Fit, k: usize) -> [u8; 3] {
+    let radii: Vec<f32> = fit.spheres.iter().map(|s| s.radius_mm).collect();
+    let (lo, hi) = radii.iter().fold((f32::MAX, f32::MIN), |(a, b), r| (a.min(*r), b.max(*r)));
+    let t = if hi > lo { (radii[k] - lo) / (hi - lo) } else { 0.5 };
+    Colormap::Viridis.color_at(0.9 * t)
+}
+
+/// The poster's Fig. 2 for every radius: green channel, raw (dots) and φ-corrected (lines),
+/// log radiance so the shadow side shows.
+fn radiance_plot(fit: &Fit) -> String {
+    let settings = fit.curves.chosen.settings;
+    let mut plot = LinePlot::new(
+        "Radiance against θ per radius: raw (dots, all φ) and φ-corrected f(θ) (lines), green",
+        "θ, angle between normal and light (degrees)",
+        "π·L/E",
+    )
+    .with_log_y(true)
+    .with_x_range(0.0, 180.0)
+    .with_size_px(900, 560);
+    for (k, sphere) in fit.spheres.iter().enumerate() {
+        let color = radius_color(fit, k);
+        let mut sums = vec![(0.0_f32, 0_u32); 181];
+        for s in &fit.samples[k].samples {
+            let bin = (s.theta_rad.to_degrees().round() as usize).min(180);
+            sums[bin].0 += s.radiance.y;
+            sums[bin].1 += 1;
+        }
+        let raw = sums
+            .iter()
+            .enumerate()
+            .filter(|(_, (_, n))| *n > 0)
+            .map(|(d, (sum, n))| (d as f32, sum / *n as f32))
+            .collect();
+        let corrected = smooth_curve(&fit.curves.chosen, k)
+            .iter()
+            .enumerate()
+            .map(|(a, v)| (theta_rad_at(a, settings.theta_count).to_degrees(), v.y))
+            .collect();
+        plot = plot
+            .with_series(Series::new("", color, raw).with_style(LineStyle::Markers))
+            .with_series(Series::new(format!("r = {} mm", sphere.radius_mm), color, corrected));
+    }
+    plot.to_svg()
+}
+
+fn view_plot(fit: &Fit) -> String {
+    let chosen = &fit.curves.chosen;
+    let phi_deg = |i: usize, n: usize| 90.0 * i as f32 / (n - 1) as f32;
+    let mut plot = LinePlot::new(
+        "View correction: the poster's g(φ), and g(φ)·c(θ, φ) at a few θ",
+        "φ, angle between normal and view (degrees)",
+        "factor",
+    )
+    .with_x_range(0.0, 90.0)
+    .with_size_px(900, 560);
+    for (c, (name, color)) in [("R", [213, 94, 0]), ("G", [0, 158, 115]), ("B", [0, 114, 178])]
+        .into_iter()
+        .enumerate()
+    {
+        let points = chosen
+            .g_phi
+            .iter()
+            .enumerate()
+            .map(|(i, g)| (phi_deg(i, chosen.g_phi.len()), g[c]))
+            .collect();
+        plot = plot.with_series(Series::new(format!("g(φ) {name}"), color, points));
+    }
+    if chosen.correction.is_some() {
+        for (j, theta_deg) in [30.0_f32, 60.0, 80.0, 100.0, 120.0].into_iter().enumerate() {
+            let points = (0..=45)
+                .map(|i| {
+                    let phi = (2.0 * i as f32).to_radians();
+                    (2.0 * i as f32, chosen.view_factor(theta_deg.to_radians(), phi).y)
+                })
+                // Only where a sphere lit at 90° to the view has data: φ ≥ |90° − θ|.
+                .filter(|(phi_deg, _)| *phi_deg >= (90.0 - theta_deg).abs())
+                .collect();
+            let color = Colormap::Inferno.color_at(0.15 + 0.17 * j as f32);
+            plot = plot.with_series(
+                Series::new(format!("G, θ = {theta_deg}°"), color, points).with_style(LineStyle::Dashed),
+            );
+        }
+    }
+    plot.to_svg()
+}
+
+/// The table in colour (sRGB, exposure chosen so the lit side is bright), 4× enlarged.
+fn lut_picture(fit: &Fit) -> image::RgbImage {
+    let lut = &fit.lut;
+    let picture = rgb_png_srgb(lut.radiance(), lut.theta_count(), lut.curvature_axis().count, 1.0);
+    upscale_nearest(&picture, 4, 4)
+}

@@ -1,0 +1,504 @@
+//! Finding a sphere in a photograph and turning its pixels into (θ, φ, radiance) samples.
+//!
+//! # Detection
+//! The shadow side of a large translucent sphere is nearly black, so its silhouette is only
+//! visible on the lit side. Detection therefore fits a circle to the *visible* boundary:
+//! 1. threshold the luminance at 2 % of its 99th percentile and take the mask's boundary pixels
+//!    (this includes a false boundary where the shadow side fades out);
+//! 2. RANSAC: circles through three boundary pixels, keeping the one most boundary pixels lie on
+//!    (the false boundary is not a circle of the same centre, so it loses);
+//! 3. refine to sub-pixel: along the radius through every inlier, find where the bilinearly
+//!    interpolated luminance crosses half the level just inside the edge (with a box pixel
+//!    filter that is where the true edge is) and fit a circle to those points by geometric least
+//!    squares.
+//!
+//! # Geometry
+//! Pixel `(i, j)` (row 0 at the top) has its centre at continuous coordinates
+//! `(i + 0.5, j + 0.5)`; camera space is +x right, +y up, +z toward the camera.
+//! - **Orthographic**: the normal at a pixel is `((u − cx)/R, −(v − cy)/R, √(1 − …))` and the
+//!   view vector is `(0, 0, 1)`.
+//! - **Perspective** (vertical field of view, principal point at the image centre): the sphere
+//!   lies along the ray through the circle's centre at the distance that makes its angular
+//!   radius match the circle's; each pixel's ray is intersected with it, and the view vector is
+//!   the reversed ray. (A sphere off the optical axis images as a slight ellipse; the fitted
+//!   circle is its best circle, which is exact on the axis.)
+
+use glam::{DVec2, Vec2, Vec3};
+
+use crate::dataset::{Light, Projection};
+use crate::image_io::LinearImage;
+
+/// A circle in continuous pixel coordinates (`(0, 0)` is the top-left corner of the image).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Circle {
+    /// Centre, pixels.
+    pub center_px: Vec2,
+    /// Radius, pixels.
+    pub radius_px: f32,
+}
+
+/// A sphere's silhouette as detected in an image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Detection {
+    /// The fitted circle.
+    pub circle: Circle,
+    /// Boundary points the circle was fitted to.
+    pub edge_points: usize,
+    /// RMS distance of those points from the circle, pixels.
+    pub rms_residual_px: f32,
+}
+
+/// Why no sphere could be found.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum DetectionError {
+    /// Everything is black (or the image is empty).
+    #[error("the image is black: no sphere to detect")]
+    Black,
+    /// Too little of a circular boundary is visible.
+    #[error("no circular silhouette found ({inliers} of {boundary} boundary pixels on the best circle)")]
+    NoCircle {
+        /// Boundary pixels on the best circle.
+        inliers: usize,
+        /// Boundary pixels in all.
+        boundary: usize,
+    },
+}
+
+/// Luminance used for detection (the mean of R, G, B: no colour preference).
+fn luminance(pixel: Vec3) -> f32 {
+    (pixel.x + pixel.y + pixel.z) / 3.0
+}
+
+/// Detects the sphere's silhouette in a linear RGB image (row-major, row 0 at the top).
+///
+/// # Errors
+/// When the image is black or shows no circular silhouette.
+pub fn detect_sphere(width: usize, height: usize, pixels: &[Vec3]) -> Result<Detection, DetectionError> {
+    let luma: Vec<f32> = pixels.iter().map(|&p| luminance(p)).collect();
+    let mut finite: Vec<f32> = luma.iter().copied().filter(|v| v.is_finite() && *v > 0.0).collect();
+    if finite.is_empty() {
+        return Err(DetectionError::Black);
+    }
+    let rank = ((finite.len() - 1) as f64 * 0.99) as usize;
+    let (_, &mut p99, _) = finite.select_nth_unstable_by(rank, f32::total_cmp);
+    let threshold = 0.02 * p99;
+    // Threshold a lightly blurred copy (single-pixel noise would riddle the mask), then keep
+    // only the boundary against the background connected to the image border, so holes inside
+    // the sphere make no false edges.
+    let blurred = box_blur_3x3(&luma, width, height);
+    let inside = |x: usize, y: usize| blurred[y * width + x] > threshold;
+    let mut outside = vec![false; width * height];
+    let mut stack: Vec<(usize, usize)> = Vec::new();
+    for x in 0..width {
+        stack.push((x, 0));
+        stack.push((x, height - 1));
+    }
+    for y in 0..height {
+        stack.push((0, y));
+        stack.push((width - 1, y));
+    }
+    while let Some((x, y)) = stack.pop() {
+        let index = y * width + x;
+        if outside[index] || inside(x, y) {
+            continue;
+        }
+        outside[index] = true;
+        if x > 0 {
+            stack.push((x - 1, y));
+        }
+        if x + 1 < width {
+            stack.push((x + 1, y));
+        }
+        if y > 0 {
+            stack.push((x, y - 1));
+        }
+        if y + 1 < height {
+            stack.push((x, y + 1));
+        }
+    }
+    let is_outside = |x: usize, y: usize| outside[y * width + x];
+    let mut boundary = Vec::new();
+    for y in 0..height {
+        for x in 0..width {
+            if !inside(x, y) {
+                continue;
+            }
+            let at_edge = (x > 0 && is_outside(x - 1, y))
+                || (x + 1 < width && is_outside(x + 1, y))
+                || (y > 0 && is_outside(x, y - 1))
+                || (y + 1 < height && is_outside(x, y + 1));
+            if at_edge {
+                boundary.push(DVec2::new(x as f64 + 0.5, y as f64 + 0.5));
+            }
+        }
+    }
+    if boundary.len() < 12 {
+        return Err(DetectionError::NoCircle {
+            inliers: 0,
+            boundary: boundary.len(),
+        });
+    }
+
+    let (circle, inliers) = ransac_circle(&boundary, width.max(height) as f64);
+    // At least a quarter of the circle must be visible.
+    let min_inliers = ((circle.1 * std::f64::consts::FRAC_PI_2) as usize).max(12);
+    if inliers.len() < min_inliers {
+        return Err(DetectionError::NoCircle {
+            inliers: inliers.len(),
+            boundary: boundary.len(),
+        });
+    }
+    let circle = fit_circle(&inliers, circle);
+
+    // Sub-pixel edge along the radius through each inlier.
+    let sample = |p: DVec2| bilinear(&luma, width, height, p);
+    let edges: Vec<DVec2> = inliers
+        .iter()
+        .filter_map(|&p| {
+            let direction = (p - circle.0).normalize_or_zero();
+            if direction == DVec2::ZERO {
+                return None;
+            }
+            let inner_level = (3..=5)
+                .map(|k| sample(circle.0 + direction * (circle.1 - k as f64)))
+                .sum::<f64>()
+                / 3.0;
+            if !(inner_level > threshold as f64) {
+                return None;
+            }
+            let half = inner_level / 2.0;
+            let step = 0.125;
+            let mut previous = (circle.1 - 3.0, sample(circle.0 + direction * (circle.1 - 3.0)));
+            let mut s = circle.1 - 3.0 + step;
+            while s <= circle.1 + 3.0 {
+                let value = sample(circle.0 + direction * s);
+                if previous.1 >= half && value < half {
+                    let t = (previous.1 - half) / (previous.1 - value);
+                    return Some(circle.0 + direction * (previous.0 + t * step));
+                }
+                previous = (s, value);
+                s += step;
+            }
+            None
+        })
+        .collect();
+    let (circle, points) = if edges.len() >= min_inliers.min(inliers.len()) {
+        (fit_circle(&edges, circle), edges)
+    } else {
+        (circle, inliers)
+    };
+    let rms = (points
+        .iter()
+        .map(|p| ((*p - circle.0).length() - circle.1).powi(2))
+        .sum::<f64>()
+        / points.len() as f64)
+        .sqrt();
+    Ok(Detection {
+        circle: Circle {
+            center_px: circle.0.as_vec2(),
+            radius_px: circle.1 as f32,
+        },
+        edge_points: points.len(),
+        rms_residual_px: rms as f32,
+    })
+}
+
+fn box_blur_3x3(values: &[f32], width: usize, height: usize) -> Vec<f32> {
+    let mut out = vec![0.0; values.len()];
+    for y in 0..height {
+        for x in 0..width {
+            let (mut sum, mut count) = (0.0, 0.0);
+            for yy in y.saturating_sub(1)..(y + 2).min(height) {
+                for xx in x.saturating_sub(1)..(x + 2).min(width) {
+                    sum += values[yy * width + xx];
+                    count += 1.0;
+                }
+            }
+            out[y * width + x] = sum / count;
+        }
+    }
+    out
+}
+
+fn bilinear(values: &[f32], width: usize, height: usize, p: DVec2) -> f64 {
+    let x = (p.x - 0.5).clamp(0.0, (width - 1) as f64);
+    let y = (p.y - 0.5).clamp(0.0, (height - 1) as f64);
+    let (x0, y0) = (x as usize, y as usize);
+    let (x1, y1) = ((x0 + 1).min(width - 1), (y0 + 1).min(height - 1));
+    let (tx, ty) = (x - x0 as f64, y - y0 as f64);
+    let at = |x: usize, y: usize| values[y * width + x] as f64;
+    let top = at(x0, y0) * (1.0 - tx) + at(x1, y0) * tx;
+    let bottom = at(x0, y1) * (1.0 - tx) + at(x1, y1) * tx;
+    top * (1.0 - ty) + bottom * ty
+}
+
+/// RANSAC over circles through three boundary points (deterministic: a fixed-seed generator).
+fn ransac_circle(points: &[DVec2], max_radius: f64) -> ((DVec2, f64), Vec<DVec2>) {
+    let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+    let mut next = |n: usize| {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state % n as u64) as usize
+    };
+    let tolerance = 1.5;
+    let mut best = ((DVec2::ZERO, 0.0), 0usize);
+    for _ in 0..400 {
+        let (a, b, c) = (points[next(points.len())], points[next(points.len())], points[next(points.len())]);
+        let Some((center, radius)) = circle_through(a, b, c) else {
+            continue;
+        };
+        if !(4.0..=max_radius).contains(&radius) {
+            continue;
+        }
+        let count = points
+            .iter()
+            .filter(|p| ((**p - center).length() - radius).abs() < tolerance)
+            .count();
+        if count > best.1 {
+            best = ((center, radius), count);
+        }
+    }
+    let (center, radius) = best.0;
+    let inliers = points
+        .iter()
+        .copied()
+        .filter(|p| ((*p - center).length() - radius).abs() < tolerance)
+        .collect();
+    (best.0, inliers)
+}
+
+fn circle_through(a: DVec2, b: DVec2, c: DVec2) -> Option<(DVec2, f64)> {
+    let d = 2.0 * (a.x * (b.y - c.y) + b.x * (c.y - a.y) + c.x * (a.y - b.y));
+    if d.abs() < 1e-9 {
+        return None;
+    }
+    let (a2, b2, c2) = (a.length_squared(), b.length_squared(), c.length_squared());
+    let center = DVec2::new(
+        (a2 * (b.y - c.y) + b2 * (c.y - a.y) + c2 * (a.y - b.y)) / d,
+        (a2 * (c.x - b.x) + b2 * (a.x - c.x) + c2 * (b.x - a.x)) / d,
+    );
+    Some((center, (a - center).length()))
+}
+
+/// Geometric least-squares circle (Gauss–Newton from `start`).
+fn fit_circle(points: &[DVec2], start: (DVec2, f64)) -> (DVec2, f64) {
+    let (mut center, mut radius) = start;
+    for _ in 0..20 {
+        // Residual rᵢ = |pᵢ − c| − R; Jacobian row (−uᵢ, −1) with uᵢ the unit vector c → pᵢ.
+        let mut normal = [[0.0_f64; 3]; 3];
+        let mut rhs = [0.0_f64; 3];
+        for p in points {
+            let offset = *p - center;
+            let distance = offset.length();
+            if distance < 1e-12 {
+                continue;
+            }
+            let u = offset / distance;
+            let row = [-u.x, -u.y, -1.0];
+            let residual = distance - radius;
+            for i in 0..3 {
+                for j in 0..3 {
+                    normal[i][j] += row[i] * row[j];
+                }
+                rhs[i] -= row[i] * residual;
+            }
+        }
+        let Some(step) = solve3(normal, rhs) else {
+            break;
+        };
+        center += DVec2::new(step[0], step[1]);
+        radius += step[2];
+        if step.iter().map(|s| s.abs()).fold(0.0, f64::max) < 1e-7 {
+            break;
+        }
+    }
+    (center, radius)
+}
+
+fn solve3(m: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
+    let det = |m: [[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det(m);
+    if d.abs() < 1e-12 {
+        return None;
+    }
+    let mut x = [0.0; 3];
+    for (k, value) in x.iter_mut().enumerate() {
+        let mut mk = m;
+        for row in 0..3 {
+            mk[row][k] = b[row];
+        }
+        *value = det(mk) / d;
+    }
+    Some(x)
+}
+
+/// Where a pixel sees the sphere: its normal and the direction to the camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    /// Unit outward normal, camera space.
+    pub normal: Vec3,
+    /// Unit vector from the point toward the camera.
+    pub to_camera: Vec3,
+    /// Distance of the pixel centre from the silhouette, pixels (positive inside).
+    pub inside_by_px: f32,
+}
+
+/// Maps pixels to points on a sphere seen through a camera.
+#[derive(Clone, Copy, Debug)]
+pub struct SphereView {
+    circle: Circle,
+    perspective: Option<PerspectiveSphere>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct PerspectiveSphere {
+    principal_px: Vec2,
+    focal_px: f32,
+    /// Sphere centre in units of its radius, camera at the origin.
+    center: Vec3,
+}
+
+impl SphereView {
+    /// The sphere with silhouette `circle` in a `width × height` image taken with `projection`.
+    pub fn new(circle: Circle, projection: Projection, width: usize, height: usize) -> Self {
+        let perspective = match projection {
+            Projection::Orthographic => None,
+            Projection::Perspective { vertical_fov_deg } => {
+                let principal_px = Vec2::new(width as f32, height as f32) / 2.0;
+                let focal_px = (height as f32 / 2.0) / (vertical_fov_deg.to_radians() / 2.0).tan();
+                let ray = |p: Vec2| Vec3::new(p.x - principal_px.x, principal_px.y - p.y, -focal_px).normalize();
+                let axis = ray(circle.center_px);
+                // Angular radius: mean angle between the axis and rays through the silhouette.
+                let samples = 64;
+                let angle = (0..samples)
+                    .map(|k| {
+                        let t = k as f32 / samples as f32 * std::f32::consts::TAU;
+                        let p = circle.center_px + circle.radius_px * Vec2::new(t.cos(), t.sin());
+                        axis.dot(ray(p)).clamp(-1.0, 1.0).acos()
+                    })
+                    .sum::<f32>()
+                    / samples as f32;
+                Some(PerspectiveSphere {
+                    principal_px,
+                    focal_px,
+                    center: axis / angle.sin(),
+                })
+            }
+        };
+        Self { circle, perspective }
+    }
+
+    /// The surface point seen through the centre of pixel `(column, row)`, if any.
+    pub fn point(&self, column: usize, row: usize) -> Option<SurfacePoint> {
+        let pixel = Vec2::new(column as f32 + 0.5, row as f32 + 0.5);
+        match self.perspective {
+            None => {
+                let offset = (pixel - self.circle.center_px) / self.circle.radius_px;
+                let (x, y) = (offset.x, -offset.y);
+                let rho2 = x * x + y * y;
+                if rho2 >= 1.0 {
+                    return None;
+                }
+                Some(SurfacePoint {
+                    normal: Vec3::new(x, y, (1.0 - rho2).sqrt()),
+                    to_camera: Vec3::Z,
+                    inside_by_px: self.circle.radius_px - (pixel - self.circle.center_px).length(),
+                })
+            }
+            Some(sphere) => {
+                let ray = Vec3::new(
+                    pixel.x - sphere.principal_px.x,
+                    sphere.principal_px.y - pixel.y,
+                    -sphere.focal_px,
+                )
+                .normalize();
+                let along = ray.dot(sphere.center);
+                let discriminant = along * along - (sphere.center.length_squared() - 1.0);
+                if discriminant <= 0.0 {
+                    return None;
+                }
+                let hit = ray * (along - discriminant.sqrt());
+                Some(SurfacePoint {
+                    normal: (hit - sphere.center).normalize(),
+                    to_camera: -ray,
+                    inside_by_px: self.circle.radius_px - (pixel - self.circle.center_px).length(),
+                })
+            }
+        }
+    }
+}
+
+/// One pixel of a sphere photograph, reduced to what the fit needs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Angle between normal and light, radians.
+    pub theta_rad: f32,
+    /// Angle between normal and view, radians.
+    pub phi_rad: f32,
+    /// π·L/E per channel.
+    pub radiance: Vec3,
+    /// Pixel index (row-major) in its image.
+    pub pixel: u32,
+}
+
+/// How many pixels inside the silhouette were not used, and why.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct DroppedPixels {
+    /// Closer to the silhouette than the margin (their footprint mixes in background, and their
+    /// normals are the least certain).
+    pub near_silhouette: usize,
+    /// A channel at the format's maximum code value.
+    pub saturated: usize,
+    /// NaN, infinite or negative.
+    pub invalid: usize,
+}
+
+/// Turns every usable pixel inside the silhouette into a [`Sample`].
+///
+/// Radiance is converted to π·L/E with the light's irradiance. Pixels closer to the silhouette
+/// than `edge_margin_px`, saturated pixels and invalid (non-finite or negative) ones are dropped
+/// and counted.
+pub fn sample_sphere(
+    view: &SphereView,
+    image: &LinearImage,
+    light: &Light,
+    edge_margin_px: f32,
+) -> (Vec<Sample>, DroppedPixels) {
+    let scale = Vec3::splat(std::f32::consts::PI) / light.irradiance;
+    let (width, height) = (image.width as usize, image.height as usize);
+    let mut samples = Vec::new();
+    let mut dropped = DroppedPixels::default();
+    for row in 0..height {
+        for column in 0..width {
+            let Some(point) = view.point(column, row) else {
+                continue;
+            };
+            let index = row * width + column;
+            if point.inside_by_px < edge_margin_px {
+                dropped.near_silhouette += 1;
+                continue;
+            }
+            let value = image.pixels[index];
+            if !(value.is_finite() && value.min_element() >= 0.0) {
+                dropped.invalid += 1;
+                continue;
+            }
+            if image.saturated[index] {
+                dropped.saturated += 1;
+                continue;
+            }
+            samples.push(Sample {
+                theta_rad: point.normal.dot(light.to_light).clamp(-1.0, 1.0).acos(),
+                phi_rad: point.normal.dot(point.to_camera).clamp(-1.0, 1.0).acos(),
+                radiance: value * scale,
+                pixel: index as u32,
+            });
+        }
+    }
+    (samples, dropped)
+}

@@ -1,0 +1,205 @@
+//! From per-sphere curves to the table: Catmull-Rom across curvature, the view correction grid,
+//! coverage.
+
+use cdrf_core::catmull_rom::{CatmullRom, SplineError};
+use cdrf_core::lut::{CdrfLut, CurvatureAxis, LutError, TexelCoverage, ViewCorrection};
+use glam::Vec3;
+
+use crate::curves::{CurveFit, ViewModel};
+
+/// Rows of the view-correction grid stored with a θ-dependent correction (5° apart).
+pub const VIEW_THETA_ROWS: usize = 37;
+
+/// Why the table could not be built.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TableError {
+    /// Two spheres have the same curvature, or a curvature is not finite.
+    #[error("cannot interpolate across curvature: {0}")]
+    Spline(#[from] SplineError),
+    /// The fitted values do not form a valid table.
+    #[error("fitted table is invalid: {0}")]
+    Lut(#[from] LutError),
+}
+
+/// Builds the measured table from the fitted curves of spheres with curvatures
+/// `curvature_per_mm` (same order as `fit.curves`).
+///
+/// With two or more spheres each θ column is a non-uniform Catmull-Rom spline through the
+/// spheres' values at their curvatures, sampled at `curvature_count` rows uniformly spaced
+/// between the flattest and the most curved sphere. With **one** sphere the table has a single
+/// row: it is that sphere's curve at every curvature (no curvature dependence can be measured
+/// from one radius).
+///
+/// # Errors
+/// When two spheres share a curvature or the values are not a valid table.
+pub fn build_table(
+    fit: &CurveFit,
+    curvature_per_mm: &[f32],
+    curvature_count: usize,
+) -> Result<CdrfLut, TableError> {
+    let theta_count = fit.settings.theta_count;
+    let mut order: Vec<usize> = (0..curvature_per_mm.len()).collect();
+    order.sort_by(|&a, &b| curvature_per_mm[a].total_cmp(&curvature_per_mm[b]));
+    let knots: Vec<f32> = order.iter().map(|&k| curvature_per_mm[k]).collect();
+    let (first, last) = (knots[0], knots[knots.len() - 1]);
+    let axis = if knots.len() == 1 {
+        CurvatureAxis {
+            min_per_mm: first,
+            max_per_mm: first,
+            count: 1,
+        }
+    } else {
+        CurvatureAxis {
+            min_per_mm: first,
+            max_per_mm: last,
+            count: curvature_count.max(2),
+        }
+    };
+
+    let smoothed: Vec<Vec<Vec3>> = (0..fit.curves.len()).map(|k| smooth_curve(fit, k)).collect();
+    let mut radiance = vec![Vec3::ZERO; axis.count * theta_count];
+    let mut coverage = vec![TexelCoverage::default(); axis.count * theta_count];
+    for column in 0..theta_count {
+        let values: Vec<Vec3> = order.iter().map(|&k| smoothed[k][column]).collect();
+        let counts: Vec<f32> = order.iter().map(|&k| fit.node_samples[k][column]).collect();
+        let noise: Vec<f32> = order.iter().map(|&k| fit.node_noise[k][column]).collect();
+        let spline = (knots.len() > 1)
+            .then(|| CatmullRom::new(&knots, &values))
+            .transpose()?;
+        for row in 0..axis.count {
+            let curvature = axis.curvature_per_mm(row);
+            let index = row * theta_count + column;
+            radiance[index] = match &spline {
+                Some(spline) => spline.evaluate(curvature).max(Vec3::ZERO),
+                None => values[0],
+            };
+            // Coverage between two spheres: linear in κ between theirs.
+            let upper = knots.partition_point(|&k| k < curvature).min(knots.len() - 1);
+            let lower = upper.saturating_sub(1);
+            let t = if upper == lower || knots[upper] == knots[lower] {
+                0.0
+            } else {
+                ((curvature - knots[lower]) / (knots[upper] - knots[lower])).clamp(0.0, 1.0)
+            };
+            coverage[index] = TexelCoverage {
+                sample_count: counts[lower] * (1.0 - t) + counts[upper] * t,
+                relative_spread: noise[lower] * (1.0 - t) + noise[upper] * t,
+            };
+        }
+    }
+    Ok(CdrfLut::new(axis, theta_count, radiance)?
+        .with_coverage(coverage)?
+        .with_view_correction(view_correction(fit)?))
+}
+
+/// Relative standard error a smoothed node aims for (1 %).
+const TARGET_RELATIVE_ERROR: f32 = 0.01;
+/// Widest smoothing half-window, nodes.
+const MAX_HALF_WINDOW: usize = 12;
+/// Nodes with fewer effective samples than this count as empty.
+const MIN_NODE_SAMPLES: f32 = 50.0;
+
+/// Fills and smooths one sphere's curve along θ for the table.
+///
+/// Each node is replaced by a weighted straight-line fit of **log f** over the smallest window
+/// of neighbours whose samples together pin f down to [`TARGET_RELATIVE_ERROR`] (a node's
+/// precision is samples / relative noise²). On the lit side one node already does, so nothing
+/// changes there; on the noisy shadow side the window widens. Fitting lines in log f follows
+/// the shadow side's exponential fall-off without flattening it. Nodes without data (θ near
+/// 0° and 180°, on the silhouette) take the value of the nearest measured node: flat ends, as
+/// f's even symmetry about 0 and π requires.
+pub fn smooth_curve(fit: &CurveFit, sphere: usize) -> Vec<Vec3> {
+    let curve = &fit.curves[sphere];
+    let counts = &fit.node_samples[sphere];
+    let noise = &fit.node_noise[sphere];
+    let n = curve.len();
+    let measured: Vec<bool> = (0..n).map(|a| counts[a] >= MIN_NODE_SAMPLES).collect();
+    let precision = |a: usize| {
+        if measured[a] {
+            counts[a] / (noise[a] * noise[a]).max(1e-8)
+        } else {
+            0.0
+        }
+    };
+    let needed = 1.0 / (TARGET_RELATIVE_ERROR * TARGET_RELATIVE_ERROR);
+    let floor = curve.iter().fold(Vec3::ZERO, |m, v| m.max(*v)) * 1e-7 + Vec3::splat(1e-12);
+    let mut out: Vec<Option<Vec3>> = vec![None; n];
+    for a in 0..n {
+        if !measured[a] {
+            continue;
+        }
+        let mut half = 0;
+        let mut total = precision(a);
+        while total < needed && half < MAX_HALF_WINDOW {
+            half += 1;
+            total += a.checked_sub(half).map_or(0.0, precision) + if a + half < n { precision(a + half) } else { 0.0 };
+        }
+        if half == 0 {
+            out[a] = Some(curve[a]);
+            continue;
+        }
+        // Weighted least-squares line through (b − a, ln f_b), evaluated at 0.
+        let (mut sw, mut sx, mut sxx) = (0.0_f32, 0.0_f32, 0.0_f32);
+        let (mut sy, mut sxy) = (Vec3::ZERO, Vec3::ZERO);
+        for b in a.saturating_sub(half)..=(a + half).min(n - 1) {
+            let w = precision(b);
+            if w == 0.0 {
+                continue;
+            }
+            let x = b as f32 - a as f32;
+            let y = curve[b].max(floor).to_array().map(f32::ln);
+            let y = Vec3::from_array(y);
+            sw += w;
+            sx += w * x;
+            sxx += w * x * x;
+            sy += y * w;
+            sxy += y * (w * x);
+        }
+        let det = sw * sxx - sx * sx;
+        let intercept = if det.abs() > 1e-12 * sw * sw {
+            (sy * sxx - sxy * sx) / det
+        } else {
+            sy / sw
+        };
+        out[a] = Some(Vec3::from_array(intercept.to_array().map(f32::exp)));
+    }
+    // Flat fill toward the ends and across gaps (nearest measured node).
+    let Some(first) = out.iter().position(Option::is_some) else {
+        return curve.clone();
+    };
+    let mut last = out[first].unwrap_or(curve[first]);
+    out.iter()
+        .map(|value| {
+            if let Some(v) = value {
+                last = *v;
+            }
+            last
+        })
+        .enumerate()
+        .map(|(a, v)| if a < first { out[first].unwrap_or(v) } else { v })
+        .collect()
+}
+
+/// The fit's view factor as the table's [`ViewCorrection`] grid.
+///
+/// # Errors
+/// When the fitted values are not a valid grid (negative or non-finite).
+pub fn view_correction(fit: &CurveFit) -> Result<ViewCorrection, LutError> {
+    match fit.settings.view_model {
+        ViewModel::Phi => ViewCorrection::from_phi(fit.g_phi.clone()),
+        ViewModel::ThetaPhi => {
+            let phi_count = fit.settings.phi_count;
+            let values = (0..VIEW_THETA_ROWS)
+                .flat_map(|row| {
+                    let theta = std::f32::consts::PI * row as f32 / (VIEW_THETA_ROWS - 1) as f32;
+                    (0..phi_count).map(move |column| {
+                        let phi = std::f32::consts::FRAC_PI_2 * column as f32 / (phi_count - 1) as f32;
+                        fit.view_factor(theta, phi)
+                    })
+                })
+                .collect();
+            ViewCorrection::new(phi_count, VIEW_THETA_ROWS, values)
+        }
+    }
+}
