@@ -55,7 +55,7 @@ pub struct CurveSettings {
 impl Default for CurveSettings {
     fn default() -> Self {
         Self {
-            theta_count: 181,
+            theta_count: 361,
             phi_count: 19,
             view_model: ViewModel::default(),
         }
@@ -88,7 +88,7 @@ pub struct CurveFit {
     /// Effective number of samples per θ node per sphere (sum of hat weights; 0 = filled).
     pub node_samples: Vec<Vec<f32>>,
     /// Relative noise per θ node per sphere (robust, from residuals).
-    pub node_noise: Vec<Vec<f32>>,
+    pub node_noise: Vec<Vec<Vec3>>,
     /// The poster's g(φ) on the φ nodes, g(0) = 1.
     pub g_phi: Vec<Vec3>,
     /// c(θ, φ) on the coarse grid (row-major, θ rows), when fitted.
@@ -105,7 +105,8 @@ impl CurveFit {
     }
 
     fn view_factor_at(&self, basis: &Basis) -> Vec3 {
-        let g = self.g_phi[basis.phi.0] * (1.0 - basis.phi.1) + self.g_phi[basis.phi.0 + 1] * basis.phi.1;
+        let g = self.g_phi[basis.phi.0] * (1.0 - basis.phi.1)
+            + self.g_phi[basis.phi.0 + 1] * basis.phi.1;
         match &self.correction {
             None => g,
             Some(c) => g * basis.coarse.evaluate(c),
@@ -184,8 +185,8 @@ struct Point {
     radiance: Vec3,
     /// Inverse-variance weight per channel; 0 for an outlier.
     weight: Vec3,
-    /// Dropped as an outlier (stays dropped).
-    outlier: bool,
+    /// Per channel: dropped as an outlier (stays dropped).
+    outlier: glam::BVec3,
     /// 10° θ band, for the noise estimate.
     band: u8,
 }
@@ -218,7 +219,7 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
                     basis: Basis::new(s.theta_rad, s.phi_rad, &settings),
                     radiance: s.radiance,
                     weight: Vec3::ONE,
-                    outlier: false,
+                    outlier: glam::BVec3::FALSE,
                     band: ((s.theta_rad.to_degrees() / 10.0) as usize).min(BANDS - 1) as u8,
                 })
                 .collect()
@@ -229,7 +230,7 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
         settings,
         curves: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
         node_samples: vec![vec![0.0; settings.theta_count]; spheres.len()],
-        node_noise: vec![vec![0.0; settings.theta_count]; spheres.len()],
+        node_noise: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
         g_phi: vec![Vec3::ONE; settings.phi_count],
         correction: None,
         outliers: vec![0; spheres.len()],
@@ -271,7 +272,10 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
             poster,
         };
     }
-    fit.correction = Some(vec![Vec3::ONE; CORRECTION_THETA_COUNT * CORRECTION_PHI_COUNT]);
+    fit.correction = Some(vec![
+        Vec3::ONE;
+        CORRECTION_THETA_COUNT * CORRECTION_PHI_COUNT
+    ]);
     for round in 0..4 {
         fit_correction(&mut fit, &points);
         fit_f(&mut fit, &points);
@@ -290,7 +294,7 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
 fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> CurveFit {
     let theta_count = fit.settings.theta_count;
     for (k, sphere_points) in points.iter().enumerate() {
-        fit.outliers[k] = sphere_points.iter().filter(|p| p.outlier).count();
+        fit.outliers[k] = sphere_points.iter().filter(|p| p.outlier.any()).count();
         let mut counts = vec![0.0_f32; theta_count];
         for p in sphere_points {
             let (a, t) = p.basis.theta;
@@ -302,7 +306,7 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
             .map(|a| {
                 let theta_deg = 180.0 * a as f32 / (theta_count - 1) as f32;
                 let band = ((theta_deg / 10.0) as usize).min(BANDS - 1);
-                noise[k][band].element_sum() / 3.0
+                noise[k][band]
             })
             .collect();
     }
@@ -311,7 +315,12 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
 
 /// Re-estimates each band's relative noise from the residuals and sets inverse-variance
 /// weights (optionally dropping outliers).
-fn reweight_points(fit: &CurveFit, points: &mut [Vec<Point>], noise: &mut [[Vec3; BANDS]], reject: bool) {
+fn reweight_points(
+    fit: &CurveFit,
+    points: &mut [Vec<Point>],
+    noise: &mut [[Vec3; BANDS]],
+    reject: bool,
+) {
     points
         .par_iter_mut()
         .zip(noise.par_iter_mut())
@@ -319,34 +328,38 @@ fn reweight_points(fit: &CurveFit, points: &mut [Vec<Point>], noise: &mut [[Vec3
         .for_each(|(k, (sphere_points, noise))| {
             let peak = fit.curves[k].iter().fold(Vec3::ZERO, |m, v| m.max(*v));
             let floor = (peak * 1e-4).max(Vec3::splat(1e-12));
-            let model = |p: &Point| (hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(&p.basis)).max(floor);
-            let mut deviations: Vec<Vec<[f32; 3]>> = vec![Vec::new(); BANDS];
+            let model = |p: &Point| {
+                (hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(&p.basis)).max(floor)
+            };
+            // Relative deviations per band and channel, only where the model is above its floor
+            // (below it the ratio measures the floor, not the noise).
+            let mut deviations: Vec<[Vec<f32>; 3]> = vec![Default::default(); BANDS];
             for p in sphere_points.iter() {
-                let relative = (p.radiance / model(p) - Vec3::ONE).abs();
-                deviations[p.band as usize].push(relative.to_array());
+                let m = hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(&p.basis);
+                for c in 0..3 {
+                    if m[c] > floor[c] {
+                        deviations[p.band as usize][c].push((p.radiance[c] / m[c] - 1.0).abs());
+                    }
+                }
             }
-            for (band, values) in deviations.iter_mut().enumerate() {
-                if values.len() < 16 {
-                    continue;
+            for (band, channels) in deviations.iter_mut().enumerate() {
+                for (c, values) in channels.iter_mut().enumerate() {
+                    if values.len() < 16 {
+                        continue;
+                    }
+                    let middle = values.len() / 2;
+                    let (_, median, _) = values.select_nth_unstable_by(middle, f32::total_cmp);
+                    noise[band][c] = (1.4826 * *median).max(2e-3);
                 }
-                let mut estimate = [0.0_f32; 3];
-                for (channel, slot) in estimate.iter_mut().enumerate() {
-                    let mut column: Vec<f32> = values.iter().map(|v| v[channel]).collect();
-                    let middle = column.len() / 2;
-                    let (_, median, _) = column.select_nth_unstable_by(middle, f32::total_cmp);
-                    *slot = (1.4826 * *median).max(2e-3);
-                }
-                noise[band] = Vec3::from_array(estimate);
             }
             for p in sphere_points.iter_mut() {
                 let m = model(p);
                 let sigma = noise[p.band as usize] * m;
-                p.outlier |= reject && (p.radiance - m).abs().cmpgt(sigma * 6.0).any();
-                p.weight = if p.outlier {
-                    Vec3::ZERO
-                } else {
-                    Vec3::ONE / (sigma * sigma)
-                };
+                if reject {
+                    p.outlier |= (p.radiance - m).abs().cmpgt(sigma * 6.0);
+                }
+                let weight = Vec3::ONE / (sigma * sigma);
+                p.weight = Vec3::select(p.outlier, Vec3::ZERO, weight);
             }
         });
 }
@@ -357,7 +370,7 @@ fn solve_tridiagonal(diagonal: &mut [Vec3], upper: &mut [Vec3], rhs: &mut [Vec3]
     for i in 1..n {
         let factor = upper[i - 1] / diagonal[i - 1];
         diagonal[i] -= factor * upper[i - 1];
-        rhs[i] = rhs[i] - factor * rhs[i - 1];
+        rhs[i] -= factor * rhs[i - 1];
     }
     let mut x = vec![Vec3::ZERO; n];
     x[n - 1] = rhs[n - 1] / diagonal[n - 1];
@@ -396,7 +409,11 @@ fn fit_f(fit: &mut CurveFit, points: &[Vec<Point>]) {
     let curves: Vec<Vec<Vec3>> = points
         .par_iter()
         .map(|sphere_points| {
-            let (mut diagonal, mut upper, mut rhs) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+            let (mut diagonal, mut upper, mut rhs) = (
+                vec![Vec3::ZERO; n],
+                vec![Vec3::ZERO; n],
+                vec![Vec3::ZERO; n],
+            );
             for p in sphere_points {
                 let view = fit.view_factor_at(&p.basis);
                 let (a, t) = p.basis.theta;
@@ -421,7 +438,13 @@ fn fit_f(fit: &mut CurveFit, points: &[Vec<Point>]) {
 
 fn fit_g(fit: &mut CurveFit, points: &[Vec<Point>]) {
     let n = fit.settings.phi_count;
-    let zero = || (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+    let zero = || {
+        (
+            vec![Vec3::ZERO; n],
+            vec![Vec3::ZERO; n],
+            vec![Vec3::ZERO; n],
+        )
+    };
     let (mut diagonal, mut upper, mut rhs) = points
         .par_iter()
         .enumerate()
@@ -521,7 +544,12 @@ fn fit_correction(fit: &mut CurveFit, points: &[Vec<Point>]) {
         }
     }
     if let Some(solution) = solve_dense(matrix, rhs) {
-        fit.correction = Some(solution.into_iter().map(|v| v.max(Vec3::splat(0.05))).collect());
+        fit.correction = Some(
+            solution
+                .into_iter()
+                .map(|v| v.max(Vec3::splat(0.05)))
+                .collect(),
+        );
     }
 }
 
@@ -529,10 +557,14 @@ fn fit_correction(fit: &mut CurveFit, points: &[Vec<Point>]) {
 fn solve_dense<const N: usize>(matrix: Vec<[Vec3; N]>, rhs: Vec<Vec3>) -> Option<Vec<Vec3>> {
     let mut solution = vec![Vec3::ZERO; N];
     for channel in 0..3 {
-        let mut a: Vec<Vec<f64>> = matrix.iter().map(|row| row.iter().map(|v| v[channel] as f64).collect()).collect();
+        let mut a: Vec<Vec<f64>> = matrix
+            .iter()
+            .map(|row| row.iter().map(|v| v[channel] as f64).collect())
+            .collect();
         let mut b: Vec<f64> = rhs.iter().map(|v| v[channel] as f64).collect();
         for column in 0..N {
-            let pivot = (column..N).max_by(|&i, &j| a[i][column].abs().total_cmp(&a[j][column].abs()))?;
+            let pivot =
+                (column..N).max_by(|&i, &j| a[i][column].abs().total_cmp(&a[j][column].abs()))?;
             if a[pivot][column].abs() < 1e-300 {
                 return None;
             }
@@ -549,7 +581,9 @@ fn solve_dense<const N: usize>(matrix: Vec<[Vec3; N]>, rhs: Vec<Vec3>) -> Option
             }
         }
         for row in (0..N).rev() {
-            let sum: f64 = (row + 1..N).map(|k| a[row][k] * solution[k][channel] as f64).sum();
+            let sum: f64 = (row + 1..N)
+                .map(|k| a[row][k] * solution[k][channel] as f64)
+                .sum();
             solution[row][channel] = ((b[row] - sum) / a[row][row]) as f32;
         }
     }

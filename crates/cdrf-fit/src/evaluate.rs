@@ -89,7 +89,12 @@ pub fn sphere_error(sphere: &SphereSamples, model: impl Fn(f32, f32) -> Vec3) ->
         let (x, y) = (pixel % sphere.image_width, pixel / sphere.image_width);
         (y / BLOCK_PX) as usize * blocks_across + (x / BLOCK_PX) as usize
     };
-    let block_count = sphere.samples.iter().map(|s| block_of(s.pixel) + 1).max().unwrap_or(0);
+    let block_count = sphere
+        .samples
+        .iter()
+        .map(|s| block_of(s.pixel) + 1)
+        .max()
+        .unwrap_or(0);
     let mut blocks = vec![(0_u32, Vec3::ZERO, Vec3::ZERO, 0.0_f32); block_count];
     for s in &sphere.samples {
         let entry = &mut blocks[block_of(s.pixel)];

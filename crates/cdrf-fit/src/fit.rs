@@ -12,7 +12,9 @@ use crate::dataset::{Dataset, SphereEntry};
 use crate::evaluate::{SphereError, sphere_error};
 use crate::gaussian_fit::{GaussianFit, fit_gaussian};
 use crate::image_io::{ImageError, load_linear_image};
-use crate::sphere::{Circle, Detection, DetectionError, DroppedPixels, SphereView, detect_sphere, sample_sphere};
+use crate::sphere::{
+    Circle, Detection, DetectionError, DroppedPixels, SphereView, detect_sphere, sample_sphere,
+};
 use crate::table::{TableError, build_table};
 
 /// Settings of a fit. `Default` is what `cdrf-fit` uses.
@@ -364,7 +366,11 @@ pub fn fit_samples(
                     let curve: Vec<Vec3> = (0..=1800)
                         .map(|i| {
                             let theta = std::f32::consts::PI * i as f32 / 1800.0;
-                            Vec3::from_array(cdrf_core::Cdrf::reflectance(&gaussian.model, curvature, theta))
+                            Vec3::from_array(cdrf_core::Cdrf::reflectance(
+                                &gaussian.model,
+                                curvature,
+                                theta,
+                            ))
                         })
                         .collect();
                     sphere_error(sphere, |theta, phi| {
@@ -373,13 +379,18 @@ pub fn fit_samples(
                         curve[i].lerp(curve[i + 1], u - i as f32) * view(theta, phi)
                     })
                 },
-                poster_view_fit: sphere_error(sphere, |theta, phi| curves.poster.model(k, theta, phi)),
-                chosen_view_fit: sphere_error(sphere, |theta, phi| curves.chosen.model(k, theta, phi)),
+                poster_view_fit: sphere_error(sphere, |theta, phi| {
+                    curves.poster.model(k, theta, phi)
+                }),
+                chosen_view_fit: sphere_error(sphere, |theta, phi| {
+                    curves.chosen.model(k, theta, phi)
+                }),
             }
         })
         .collect();
     timings.evaluation_s = started.elapsed().as_secs_f64();
-    timings.total_s += timings.curves_s + timings.table_s + timings.gaussian_s + timings.evaluation_s;
+    timings.total_s +=
+        timings.curves_s + timings.table_s + timings.gaussian_s + timings.evaluation_s;
 
     Ok(Fit {
         lut,

@@ -39,9 +39,14 @@ const SIGMA_RANGE_MM: (f64, f64) = (0.01, 100.0);
 ///
 /// # Errors
 /// Only if the fitted parameters are invalid (non-finite), which means the samples were.
-pub fn fit_gaussian(spheres: &[SphereSamples], fit: &CurveFit) -> Result<GaussianFit, ParameterError> {
+pub fn fit_gaussian(
+    spheres: &[SphereSamples],
+    fit: &CurveFit,
+) -> Result<GaussianFit, ParameterError> {
     let n = fit.settings.theta_count;
-    let theta_nodes: Vec<f64> = (0..n).map(|a| std::f64::consts::PI * a as f64 / (n - 1) as f64).collect();
+    let theta_nodes: Vec<f64> = (0..n)
+        .map(|a| std::f64::consts::PI * a as f64 / (n - 1) as f64)
+        .collect();
     // Per sphere: [channel] normal equations, and Σ L² per channel.
     let per_sphere: Vec<([Normal; 3], [f64; 3])> = spheres
         .par_iter()
@@ -56,7 +61,8 @@ pub fn fit_gaussian(spheres: &[SphereSamples], fit: &CurveFit) -> Result<Gaussia
             let mut energy = [0.0_f64; 3];
             for s in &sphere.samples {
                 let g = fit.view_factor(s.theta_rad, s.phi_rad);
-                let u = (s.theta_rad as f64 / std::f64::consts::PI * (n - 1) as f64).clamp(0.0, (n - 1) as f64);
+                let u = (s.theta_rad as f64 / std::f64::consts::PI * (n - 1) as f64)
+                    .clamp(0.0, (n - 1) as f64);
                 let a = (u as usize).min(n - 2);
                 let t = u - a as f64;
                 let (b0, b1) = (1.0 - t, t);
@@ -88,7 +94,9 @@ pub fn fit_gaussian(spheres: &[SphereSamples], fit: &CurveFit) -> Result<Gaussia
                 .map(|normal| {
                     let kernel: Vec<f64> = theta_nodes
                         .iter()
-                        .map(|&theta| convolved_clamped_cosine(theta, sigma * normal.curvature_per_mm))
+                        .map(|&theta| {
+                            convolved_clamped_cosine(theta, sigma * normal.curvature_per_mm)
+                        })
                         .collect();
                     let mut k_r = 0.0;
                     let mut k_m_k = 0.0;
@@ -110,21 +118,28 @@ pub fn fit_gaussian(spheres: &[SphereSamples], fit: &CurveFit) -> Result<Gaussia
         };
         let (lo, hi) = (SIGMA_RANGE_MM.0.ln(), SIGMA_RANGE_MM.1.ln());
         let steps = 48;
-        let grid: Vec<f64> = (0..=steps).map(|i| lo + (hi - lo) * i as f64 / steps as f64).collect();
+        let grid: Vec<f64> = (0..=steps)
+            .map(|i| lo + (hi - lo) * i as f64 / steps as f64)
+            .collect();
         let best = grid
             .iter()
             .copied()
             .max_by(|&a, &b| explained(a).total_cmp(&explained(b)))
             .unwrap_or(lo);
         let step = (hi - lo) / steps as f64;
-        let log_sigma = golden_section_max(&explained, (best - step).max(lo), (best + step).min(hi));
+        let log_sigma =
+            golden_section_max(&explained, (best - step).max(lo), (best + step).min(hi));
         let sigma = log_sigma.exp();
         let (k_r, k_m_k) = moments(sigma);
         let fitted_scale = if k_m_k > 0.0 { k_r / k_m_k } else { 0.0 };
         let residual = (energy - fitted_scale * k_r).max(0.0);
         sigma_mm[c] = sigma as f32;
         scale[c] = fitted_scale as f32;
-        relative_rms[c] = if energy > 0.0 { (residual / energy).sqrt() as f32 } else { 0.0 };
+        relative_rms[c] = if energy > 0.0 {
+            (residual / energy).sqrt() as f32
+        } else {
+            0.0
+        };
     }
     Ok(GaussianFit {
         model: GaussianCdrf::with_scale(sigma_mm, scale)?,

@@ -71,10 +71,16 @@ fn main() -> ExitCode {
 
 fn run(args: Args) -> anyhow::Result<()> {
     if args.theta_count < 19 {
-        bail!("--theta-count {}: need at least 19 (10° apart)", args.theta_count);
+        bail!(
+            "--theta-count {}: need at least 19 (10° apart)",
+            args.theta_count
+        );
     }
     if args.curvature_count < 2 {
-        bail!("--curvature-count {}: need at least 2", args.curvature_count);
+        bail!(
+            "--curvature-count {}: need at least 2",
+            args.curvature_count
+        );
     }
     let mut options = FitOptions::default();
     options.curves.theta_count = args.theta_count;
@@ -127,7 +133,9 @@ fn run(args: Args) -> anyhow::Result<()> {
             fit.timings.decode_s,
             view_model_name(options.curves.view_model),
         );
-        eprintln!("radius  measured error  Gaussian error   (mean relative, lit + terminator, 8×8 px blocks)");
+        eprintln!(
+            "radius  measured error  Gaussian error   (mean relative, lit + terminator, 8×8 px blocks)"
+        );
         for (sphere, errors) in fit.spheres.iter().zip(&fit.errors) {
             eprintln!(
                 "{:>4} mm  {:>12.2} %  {:>12.2} %",

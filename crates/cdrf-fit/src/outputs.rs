@@ -21,8 +21,8 @@ use serde::{Deserialize, Serialize};
 use crate::curves::{CORRECTION_PHI_COUNT, ViewModel};
 use crate::evaluate::SphereError;
 use crate::fit::{Fit, ModelErrors, SphereReport, Timings};
-use crate::table::smooth_curve;
 use crate::plot::{Colormap, LinePlot, LineStyle, Series, rgb_png_srgb, upscale_nearest};
+use crate::table::smooth_curve;
 
 /// The measured LUT.
 pub const MEASURED_LUT: &str = "measured.exr";
@@ -180,7 +180,10 @@ impl Report {
                         .iter()
                         .map(|(sum, n)| (*n > 0).then(|| (*sum / *n as f32).to_array()))
                         .collect(),
-                    corrected_curve: smooth_curve(&fit.curves.chosen, k).iter().map(|v| v.to_array()).collect(),
+                    corrected_curve: smooth_curve(&fit.curves.chosen, k)
+                        .iter()
+                        .map(|v| v.to_array())
+                        .collect(),
                     samples_per_node: fit.curves.chosen.node_samples[k].clone(),
                 }
             })
@@ -191,7 +194,12 @@ impl Report {
             .g_phi
             .iter()
             .enumerate()
-            .map(|(i, g)| (90.0 * i as f32 / (settings.phi_count - 1) as f32, g.to_array()))
+            .map(|(i, g)| {
+                (
+                    90.0 * i as f32 / (settings.phi_count - 1) as f32,
+                    g.to_array(),
+                )
+            })
             .collect();
         let theta_phi_correction = fit.curves.chosen.correction.as_ref().map(|grid| {
             grid.chunks(CORRECTION_PHI_COUNT)
@@ -213,8 +221,16 @@ impl Report {
             g_phi,
             theta_phi_correction,
             view_model_residuals: ViewResiduals {
-                phi: fit.errors.iter().map(|e| lit_and_terminator(&e.poster_view_fit)).collect(),
-                theta_phi: fit.errors.iter().map(|e| lit_and_terminator(&e.chosen_view_fit)).collect(),
+                phi: fit
+                    .errors
+                    .iter()
+                    .map(|e| lit_and_terminator(&e.poster_view_fit))
+                    .collect(),
+                theta_phi: fit
+                    .errors
+                    .iter()
+                    .map(|e| lit_and_terminator(&e.chosen_view_fit))
+                    .collect(),
             },
             gaussian: GaussianSummary {
                 sigma_mm: fit.gaussian.model.sigma_mm(),
@@ -227,9 +243,11 @@ impl Report {
 }
 
 fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    cdrf_core::atomic::write_file(path, |file| file.write_all(bytes)).map_err(|source| OutputError::Io {
-        path: path.to_path_buf(),
-        source,
+    cdrf_core::atomic::write_file(path, |file| file.write_all(bytes)).map_err(|source| {
+        OutputError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
     })
 }
 
@@ -237,7 +255,11 @@ fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
 ///
 /// # Errors
 /// When `out_dir` is the data set folder, or a file cannot be written.
-pub fn write_outputs(fit: &Fit, dataset_dir: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, OutputError> {
+pub fn write_outputs(
+    fit: &Fit,
+    dataset_dir: &Path,
+    out_dir: &Path,
+) -> Result<Vec<PathBuf>, OutputError> {
     std::fs::create_dir_all(out_dir).map_err(|source| OutputError::Io {
         path: out_dir.to_path_buf(),
         source,
@@ -268,11 +290,13 @@ pub fn write_outputs(fit: &Fit, dataset_dir: &Path, out_dir: &Path) -> Result<Ve
         Ok(())
     };
 
-
     let gaussian = GaussianParameters {
         sigma_mm: fit.gaussian.model.sigma_mm(),
         scale: fit.gaussian.model.scale(),
-        view_correction: format!("{} (the g stored in {MEASURED_LUT})", view_model_name(view_model)),
+        view_correction: format!(
+            "{} (the g stored in {MEASURED_LUT})",
+            view_model_name(view_model)
+        ),
     };
     let toml = format!(
         "# Kubo et al. 2010 Gaussian CDRF fitted by cdrf-fit to the same photographs as {MEASURED_LUT}.\n\
@@ -312,8 +336,14 @@ pub fn view_model_name(model: ViewModel) -> &'static str {
 
 fn radius_color(fit: &Fit, k: usize) -> [u8; 3] {
     let radii: Vec<f32> = fit.spheres.iter().map(|s| s.radius_mm).collect();
-    let (lo, hi) = radii.iter().fold((f32::MAX, f32::MIN), |(a, b), r| (a.min(*r), b.max(*r)));
-    let t = if hi > lo { (radii[k] - lo) / (hi - lo) } else { 0.5 };
+    let (lo, hi) = radii
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(a, b), r| (a.min(*r), b.max(*r)));
+    let t = if hi > lo {
+        (radii[k] - lo) / (hi - lo)
+    } else {
+        0.5
+    };
     Colormap::Viridis.color_at(0.9 * t)
 }
 
@@ -350,7 +380,11 @@ fn radiance_plot(fit: &Fit) -> String {
             .collect();
         plot = plot
             .with_series(Series::new("", color, raw).with_style(LineStyle::Markers))
-            .with_series(Series::new(format!("r = {} mm", sphere.radius_mm), color, corrected));
+            .with_series(Series::new(
+                format!("r = {} mm", sphere.radius_mm),
+                color,
+                corrected,
+            ));
     }
     plot.to_svg()
 }
@@ -365,9 +399,13 @@ fn view_plot(fit: &Fit) -> String {
     )
     .with_x_range(0.0, 90.0)
     .with_size_px(900, 560);
-    for (c, (name, color)) in [("R", [213, 94, 0]), ("G", [0, 158, 115]), ("B", [0, 114, 178])]
-        .into_iter()
-        .enumerate()
+    for (c, (name, color)) in [
+        ("R", [213, 94, 0]),
+        ("G", [0, 158, 115]),
+        ("B", [0, 114, 178]),
+    ]
+    .into_iter()
+    .enumerate()
     {
         let points = chosen
             .g_phi
@@ -382,14 +420,18 @@ fn view_plot(fit: &Fit) -> String {
             let points = (0..=45)
                 .map(|i| {
                     let phi = (2.0 * i as f32).to_radians();
-                    (2.0 * i as f32, chosen.view_factor(theta_deg.to_radians(), phi).y)
+                    (
+                        2.0 * i as f32,
+                        chosen.view_factor(theta_deg.to_radians(), phi).y,
+                    )
                 })
                 // Only where a sphere lit at 90° to the view has data: φ ≥ |90° − θ|.
                 .filter(|(phi_deg, _)| *phi_deg >= (90.0 - theta_deg).abs())
                 .collect();
             let color = Colormap::Inferno.color_at(0.15 + 0.17 * j as f32);
             plot = plot.with_series(
-                Series::new(format!("G, θ = {theta_deg}°"), color, points).with_style(LineStyle::Dashed),
+                Series::new(format!("G, θ = {theta_deg}°"), color, points)
+                    .with_style(LineStyle::Dashed),
             );
         }
     }
@@ -399,6 +441,11 @@ fn view_plot(fit: &Fit) -> String {
 /// The table in colour (sRGB, exposure chosen so the lit side is bright), 4× enlarged.
 fn lut_picture(fit: &Fit) -> image::RgbImage {
     let lut = &fit.lut;
-    let picture = rgb_png_srgb(lut.radiance(), lut.theta_count(), lut.curvature_axis().count, 1.0);
+    let picture = rgb_png_srgb(
+        lut.radiance(),
+        lut.theta_count(),
+        lut.curvature_axis().count,
+        1.0,
+    );
     upscale_nearest(&picture, 4, 4)
 }

@@ -56,7 +56,9 @@ pub enum DetectionError {
     #[error("the image is black: no sphere to detect")]
     Black,
     /// Too little of a circular boundary is visible.
-    #[error("no circular silhouette found ({inliers} of {boundary} boundary pixels on the best circle)")]
+    #[error(
+        "no circular silhouette found ({inliers} of {boundary} boundary pixels on the best circle)"
+    )]
     NoCircle {
         /// Boundary pixels on the best circle.
         inliers: usize,
@@ -74,9 +76,17 @@ fn luminance(pixel: Vec3) -> f32 {
 ///
 /// # Errors
 /// When the image is black or shows no circular silhouette.
-pub fn detect_sphere(width: usize, height: usize, pixels: &[Vec3]) -> Result<Detection, DetectionError> {
+pub fn detect_sphere(
+    width: usize,
+    height: usize,
+    pixels: &[Vec3],
+) -> Result<Detection, DetectionError> {
     let luma: Vec<f32> = pixels.iter().map(|&p| luminance(p)).collect();
-    let mut finite: Vec<f32> = luma.iter().copied().filter(|v| v.is_finite() && *v > 0.0).collect();
+    let mut finite: Vec<f32> = luma
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
     if finite.is_empty() {
         return Err(DetectionError::Black);
     }
@@ -164,12 +174,15 @@ pub fn detect_sphere(width: usize, height: usize, pixels: &[Vec3]) -> Result<Det
                 .map(|k| sample(circle.0 + direction * (circle.1 - k as f64)))
                 .sum::<f64>()
                 / 3.0;
-            if !(inner_level > threshold as f64) {
+            if inner_level.is_nan() || inner_level <= threshold as f64 {
                 return None;
             }
             let half = inner_level / 2.0;
             let step = 0.125;
-            let mut previous = (circle.1 - 3.0, sample(circle.0 + direction * (circle.1 - 3.0)));
+            let mut previous = (
+                circle.1 - 3.0,
+                sample(circle.0 + direction * (circle.1 - 3.0)),
+            );
             let mut s = circle.1 - 3.0 + step;
             while s <= circle.1 + 3.0 {
                 let value = sample(circle.0 + direction * s);
@@ -245,7 +258,11 @@ fn ransac_circle(points: &[DVec2], max_radius: f64) -> ((DVec2, f64), Vec<DVec2>
     let tolerance = 1.5;
     let mut best = ((DVec2::ZERO, 0.0), 0usize);
     for _ in 0..400 {
-        let (a, b, c) = (points[next(points.len())], points[next(points.len())], points[next(points.len())]);
+        let (a, b, c) = (
+            points[next(points.len())],
+            points[next(points.len())],
+            points[next(points.len())],
+        );
         let Some((center, radius)) = circle_through(a, b, c) else {
             continue;
         };
@@ -319,7 +336,8 @@ fn fit_circle(points: &[DVec2], start: (DVec2, f64)) -> (DVec2, f64) {
 
 fn solve3(m: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
     let det = |m: [[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
             + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
     };
     let d = det(m);
@@ -371,7 +389,9 @@ impl SphereView {
             Projection::Perspective { vertical_fov_deg } => {
                 let principal_px = Vec2::new(width as f32, height as f32) / 2.0;
                 let focal_px = (height as f32 / 2.0) / (vertical_fov_deg.to_radians() / 2.0).tan();
-                let ray = |p: Vec2| Vec3::new(p.x - principal_px.x, principal_px.y - p.y, -focal_px).normalize();
+                let ray = |p: Vec2| {
+                    Vec3::new(p.x - principal_px.x, principal_px.y - p.y, -focal_px).normalize()
+                };
                 let axis = ray(circle.center_px);
                 // Angular radius: mean angle between the axis and rays through the silhouette.
                 let samples = 64;
@@ -390,7 +410,10 @@ impl SphereView {
                 })
             }
         };
-        Self { circle, perspective }
+        Self {
+            circle,
+            perspective,
+        }
     }
 
     /// The surface point seen through the centre of pixel `(column, row)`, if any.

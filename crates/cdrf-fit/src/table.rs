@@ -57,13 +57,18 @@ pub fn build_table(
         }
     };
 
-    let smoothed: Vec<Vec<Vec3>> = (0..fit.curves.len()).map(|k| smooth_curve(fit, k)).collect();
+    let smoothed: Vec<Vec<Vec3>> = (0..fit.curves.len())
+        .map(|k| smooth_curve(fit, k))
+        .collect();
     let mut radiance = vec![Vec3::ZERO; axis.count * theta_count];
     let mut coverage = vec![TexelCoverage::default(); axis.count * theta_count];
     for column in 0..theta_count {
         let values: Vec<Vec3> = order.iter().map(|&k| smoothed[k][column]).collect();
         let counts: Vec<f32> = order.iter().map(|&k| fit.node_samples[k][column]).collect();
-        let noise: Vec<f32> = order.iter().map(|&k| fit.node_noise[k][column]).collect();
+        let noise: Vec<f32> = order
+            .iter()
+            .map(|&k| fit.node_noise[k][column].element_sum() / 3.0)
+            .collect();
         let spline = (knots.len() > 1)
             .then(|| CatmullRom::new(&knots, &values))
             .transpose()?;
@@ -75,7 +80,9 @@ pub fn build_table(
                 None => values[0],
             };
             // Coverage between two spheres: linear in κ between theirs.
-            let upper = knots.partition_point(|&k| k < curvature).min(knots.len() - 1);
+            let upper = knots
+                .partition_point(|&k| k < curvature)
+                .min(knots.len() - 1);
             let lower = upper.saturating_sub(1);
             let t = if upper == lower || knots[upper] == knots[lower] {
                 0.0
@@ -115,54 +122,56 @@ pub fn smooth_curve(fit: &CurveFit, sphere: usize) -> Vec<Vec3> {
     let noise = &fit.node_noise[sphere];
     let n = curve.len();
     let measured: Vec<bool> = (0..n).map(|a| counts[a] >= MIN_NODE_SAMPLES).collect();
-    let precision = |a: usize| {
-        if measured[a] {
-            counts[a] / (noise[a] * noise[a]).max(1e-8)
-        } else {
-            0.0
-        }
-    };
     let needed = 1.0 / (TARGET_RELATIVE_ERROR * TARGET_RELATIVE_ERROR);
-    let floor = curve.iter().fold(Vec3::ZERO, |m, v| m.max(*v)) * 1e-7 + Vec3::splat(1e-12);
+    let peak = curve.iter().fold(Vec3::ZERO, |m, v| m.max(*v));
     let mut out: Vec<Option<Vec3>> = vec![None; n];
-    for a in 0..n {
-        if !measured[a] {
-            continue;
-        }
-        let mut half = 0;
-        let mut total = precision(a);
-        while total < needed && half < MAX_HALF_WINDOW {
-            half += 1;
-            total += a.checked_sub(half).map_or(0.0, precision) + if a + half < n { precision(a + half) } else { 0.0 };
-        }
-        if half == 0 {
-            out[a] = Some(curve[a]);
-            continue;
-        }
-        // Weighted least-squares line through (b − a, ln f_b), evaluated at 0.
-        let (mut sw, mut sx, mut sxx) = (0.0_f32, 0.0_f32, 0.0_f32);
-        let (mut sy, mut sxy) = (Vec3::ZERO, Vec3::ZERO);
-        for b in a.saturating_sub(half)..=(a + half).min(n - 1) {
-            let w = precision(b);
-            if w == 0.0 {
+    for a in (0..n).filter(|&a| measured[a]) {
+        let mut value = curve[a];
+        for c in 0..3 {
+            // Samples / relative noise², 0 for an empty node.
+            let precision = |b: usize| {
+                if measured[b] {
+                    counts[b] / (noise[b][c] * noise[b][c]).max(1e-8)
+                } else {
+                    0.0
+                }
+            };
+            let mut half = 0;
+            let mut total = precision(a);
+            while total < needed && half < MAX_HALF_WINDOW {
+                half += 1;
+                total += a.checked_sub(half).map_or(0.0, precision);
+                total += if a + half < n {
+                    precision(a + half)
+                } else {
+                    0.0
+                };
+            }
+            if half == 0 {
                 continue;
             }
-            let x = b as f32 - a as f32;
-            let y = curve[b].max(floor).to_array().map(f32::ln);
-            let y = Vec3::from_array(y);
-            sw += w;
-            sx += w * x;
-            sxx += w * x * x;
-            sy += y * w;
-            sxy += y * (w * x);
+            // Weighted least-squares line through (b − a, ln f_b), evaluated at 0.
+            let floor = peak[c] * 1e-7 + 1e-12;
+            let (mut sw, mut sx, mut sxx, mut sy, mut sxy) = (0.0_f64, 0.0, 0.0, 0.0, 0.0);
+            for b in a.saturating_sub(half)..=(a + half).min(n - 1) {
+                let w = precision(b) as f64;
+                let x = b as f64 - a as f64;
+                let y = (curve[b][c].max(floor) as f64).ln();
+                sw += w;
+                sx += w * x;
+                sxx += w * x * x;
+                sy += w * y;
+                sxy += w * x * y;
+            }
+            let det = sw * sxx - sx * sx;
+            let intercept = if det.abs() > 1e-9 * sw * sw {
+                (sy * sxx - sxy * sx) / det
+            } else {
+                sy / sw
+            };
+            value[c] = intercept.exp() as f32;
         }
-        let det = sw * sxx - sx * sx;
-        let intercept = if det.abs() > 1e-12 * sw * sw {
-            (sy * sxx - sxy * sx) / det
-        } else {
-            sy / sw
-        };
-        out[a] = Some(Vec3::from_array(intercept.to_array().map(f32::exp)));
+        out[a] = Some(value);
     }
     // Flat fill toward the ends and across gaps (nearest measured node).
     let Some(first) = out.iter().position(Option::is_some) else {
@@ -177,7 +186,13 @@ pub fn smooth_curve(fit: &CurveFit, sphere: usize) -> Vec<Vec3> {
             last
         })
         .enumerate()
-        .map(|(a, v)| if a < first { out[first].unwrap_or(v) } else { v })
+        .map(|(a, v)| {
+            if a < first {
+                out[first].unwrap_or(v)
+            } else {
+                v
+            }
+        })
         .collect()
 }
 
@@ -194,7 +209,8 @@ pub fn view_correction(fit: &CurveFit) -> Result<ViewCorrection, LutError> {
                 .flat_map(|row| {
                     let theta = std::f32::consts::PI * row as f32 / (VIEW_THETA_ROWS - 1) as f32;
                     (0..phi_count).map(move |column| {
-                        let phi = std::f32::consts::FRAC_PI_2 * column as f32 / (phi_count - 1) as f32;
+                        let phi =
+                            std::f32::consts::FRAC_PI_2 * column as f32 / (phi_count - 1) as f32;
                         fit.view_factor(theta, phi)
                     })
                 })

@@ -1,0 +1,565 @@
+//! The data set manifest: `DIR/cdrf-dataset.toml` says how the photographs in `DIR` were taken.
+//!
+//! [`Dataset::load`] parses the manifest (unknown keys are errors, so a misspelt key cannot be
+//! silently ignored), then validates it into typed values, then checks that every image exists.
+//!
+//! # Example
+//! ```toml
+//! [camera]
+//! projection = "orthographic"
+//!
+//! [light]
+//! to_light = [-1.0, 0.0, 0.0]
+//! irradiance = [1.0, 1.0, 1.0]
+//!
+//! [[sphere]]
+//! image = "sphere_r15.exr"
+//! radius_mm = 15.0
+//!
+//! [[sphere]]
+//! image = "IMG_0042.tif"
+//! radius_mm = 20.0
+//! center_px = [1012.5, 768.0]
+//! radius_px = 402.0
+//! color_space = "srgb"
+//! exposure = 2.0
+//! ```
+//!
+//! # Keys
+//! Camera space is right-handed: +x image right, +y image up, +z toward the camera.
+//!
+//! | key | required | meaning |
+//! |---|---|---|
+//! | `[camera]` `projection` | yes | `"orthographic"` (telecentric lens, or a long lens far away) or `"perspective"` |
+//! | `[camera]` `vertical_fov_deg` | with `"perspective"` only | full vertical field of view in degrees, in (0, 180); principal point at the image centre |
+//! | `[light]` `to_light` | yes | direction *toward* the (directional) light in camera space, `[x, y, z]`; normalised on load, must not be zero |
+//! | `[light]` `irradiance` | no, default `[1, 1, 1]` | irradiance per RGB channel on a surface facing the light; radiance is divided by it, so the table is relative to it. Each > 0 |
+//! | `[[sphere]]` | at least one | one table per photograph of one sphere |
+//! | `image` | yes | file name relative to the folder (an absolute path also works); OpenEXR, PNG, JPEG or TIFF |
+//! | `radius_mm` | yes | the sphere's radius in millimetres, > 0; radii must differ (curvature is 1 / radius) |
+//! | `center_px` | no | centre of the sphere's disk in continuous pixel coordinates `[column, row]`, `(0, 0)` = top-left corner of the top-left pixel; detected from the image if absent |
+//! | `radius_px` | no | radius of the disk in pixels, > 0; detected if absent |
+//! | `color_space` | no | `"linear"` or `"srgb"`; default: linear for OpenEXR, float TIFF and 16-bit PNG/TIFF, sRGB for 8-bit PNG/JPEG/TIFF (see [`crate::image_io`]) |
+//! | `exposure` | no, default `1` | factor the decoded linear values are multiplied by (e.g. `2` for an image shot one stop darker than the others), > 0 |
+//!
+//! Spheres keep the manifest's order. One sphere is accepted here; what can be fitted from one is
+//! the fitter's business.
+
+use std::path::{Path, PathBuf};
+
+use glam::{Vec2, Vec3};
+use serde::Deserialize;
+
+use crate::image_io::ColorSpace;
+
+/// The manifest's file name inside a data set folder.
+pub const MANIFEST_FILE_NAME: &str = "cdrf-dataset.toml";
+
+/// How the camera projects the scene.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Projection {
+    /// Parallel projection along −z; the view vector is `(0, 0, 1)` everywhere.
+    Orthographic,
+    /// Pinhole camera with its principal point at the image centre.
+    Perspective {
+        /// Full vertical field of view in degrees, in (0, 180).
+        vertical_fov_deg: f32,
+    },
+}
+
+/// The `[camera]` table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    /// The projection.
+    pub projection: Projection,
+}
+
+/// The `[light]` table: one directional light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Light {
+    /// Unit vector toward the light, in camera space (+x right, +y up, +z toward the camera).
+    pub to_light: Vec3,
+    /// Irradiance per RGB channel on a surface facing the light (each > 0).
+    pub irradiance: Vec3,
+}
+
+/// One `[[sphere]]` entry: a photograph of one sphere.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SphereEntry {
+    /// The image file, joined to the data set folder (absolute when the folder path is).
+    pub image: PathBuf,
+    /// The image name as written in the manifest (for messages).
+    pub image_name: String,
+    /// The sphere's radius in millimetres (> 0).
+    pub radius_mm: f32,
+    /// Centre of the sphere's disk in continuous pixel coordinates (column, row), if given.
+    pub center_px: Option<Vec2>,
+    /// Radius of the disk in pixels (> 0), if given.
+    pub radius_px: Option<f32>,
+    /// The image's colour space, if given (otherwise the format's default).
+    pub color_space: Option<ColorSpace>,
+    /// Factor applied to the decoded linear values (> 0; default 1).
+    pub exposure: f32,
+}
+
+/// A validated data set: the folder's manifest with every image checked to exist.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dataset {
+    /// The data set folder (absolute).
+    pub dir: PathBuf,
+    /// The manifest file (`dir/cdrf-dataset.toml`).
+    pub manifest: PathBuf,
+    /// The camera.
+    pub camera: Camera,
+    /// The light.
+    pub light: Light,
+    /// The spheres, in manifest order (at least one).
+    pub spheres: Vec<SphereEntry>,
+}
+
+/// Why a data set could not be loaded. Every message names the folder or the manifest.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DatasetError {
+    /// The folder does not exist.
+    #[error("{}: no such folder", dir.display())]
+    FolderMissing {
+        /// The folder given.
+        dir: PathBuf,
+    },
+    /// The path exists but is not a folder.
+    #[error("{}: not a folder (give the folder that holds {MANIFEST_FILE_NAME} and the images)", dir.display())]
+    NotAFolder {
+        /// The path given.
+        dir: PathBuf,
+    },
+    /// The folder has no manifest.
+    #[error(
+        "{}: not found ({}); every data set folder needs a {MANIFEST_FILE_NAME} listing its \
+         images, camera and light; see \"Data set manifest\" in the cdrf-fit README, or \
+         data/wax-spheres/{MANIFEST_FILE_NAME} for an example",
+        manifest.display(),
+        match (images_found, example_image) {
+            (0, _) => "the folder holds no images".to_owned(),
+            (n, Some(name)) => format!("the folder holds {n} image(s), e.g. {name}"),
+            (n, None) => format!("the folder holds {n} image(s)"),
+        }
+    )]
+    ManifestMissing {
+        /// The manifest path expected.
+        manifest: PathBuf,
+        /// How many image files (by extension) the folder holds.
+        images_found: usize,
+        /// One of them.
+        example_image: Option<String>,
+    },
+    /// The manifest or the folder could not be read.
+    #[error("{}: cannot read: {error}", path.display())]
+    Read {
+        /// The file or folder.
+        path: PathBuf,
+        /// What the operating system said.
+        error: std::io::Error,
+    },
+    /// TOML syntax error, missing key, unknown key or a value of the wrong type.
+    #[error("{}:{line}:{column}: {message}", manifest.display())]
+    Parse {
+        /// The manifest.
+        manifest: PathBuf,
+        /// 1-based line of the problem (or of the table it concerns).
+        line: usize,
+        /// 1-based column (in characters).
+        column: usize,
+        /// The TOML parser's message.
+        message: String,
+    },
+    /// `projection = "perspective"` without `vertical_fov_deg`.
+    #[error("{}: [camera] projection = \"perspective\" needs vertical_fov_deg (the full vertical field of view in degrees)", manifest.display())]
+    MissingFieldOfView {
+        /// The manifest.
+        manifest: PathBuf,
+    },
+    /// `vertical_fov_deg` given with an orthographic camera.
+    #[error("{}: [camera] vertical_fov_deg = {vertical_fov_deg} is only meaningful with projection = \"perspective\"", manifest.display())]
+    UnexpectedFieldOfView {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The value given.
+        vertical_fov_deg: f32,
+    },
+    /// The field of view is outside (0, 180) degrees.
+    #[error("{}: [camera] vertical_fov_deg = {vertical_fov_deg}: must be in (0, 180)", manifest.display())]
+    InvalidFieldOfView {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The value given.
+        vertical_fov_deg: f32,
+    },
+    /// The light direction is zero or not finite.
+    #[error("{}: [light] to_light = {to_light:?}: must be a finite, non-zero direction", manifest.display())]
+    InvalidLightDirection {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The value given.
+        to_light: [f32; 3],
+    },
+    /// An irradiance channel is not a finite number > 0.
+    #[error("{}: [light] irradiance = {irradiance:?}: every channel must be a finite number > 0", manifest.display())]
+    InvalidIrradiance {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The value given.
+        irradiance: [f32; 3],
+    },
+    /// The manifest lists no `[[sphere]]`.
+    #[error("{}: no [[sphere]] entries: list at least one image with its radius_mm", manifest.display())]
+    NoSpheres {
+        /// The manifest.
+        manifest: PathBuf,
+    },
+    /// A sphere's `radius_mm` is not a finite number > 0.
+    #[error("{}: {image}: radius_mm = {radius_mm}: must be a finite number > 0", manifest.display())]
+    InvalidRadius {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The sphere's image name.
+        image: String,
+        /// The value given.
+        radius_mm: f32,
+    },
+    /// A sphere's `radius_px` is not a finite number > 0.
+    #[error("{}: {image}: radius_px = {radius_px}: must be a finite number > 0", manifest.display())]
+    InvalidRadiusPx {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The sphere's image name.
+        image: String,
+        /// The value given.
+        radius_px: f32,
+    },
+    /// A sphere's `center_px` is not finite.
+    #[error("{}: {image}: center_px = {center_px:?}: must be finite", manifest.display())]
+    InvalidCenterPx {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The sphere's image name.
+        image: String,
+        /// The value given.
+        center_px: [f32; 2],
+    },
+    /// A sphere's `exposure` is not a finite number > 0.
+    #[error("{}: {image}: exposure = {exposure}: must be a finite number > 0", manifest.display())]
+    InvalidExposure {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The sphere's image name.
+        image: String,
+        /// The value given.
+        exposure: f32,
+    },
+    /// Two spheres have the same radius (the table interpolates across curvature = 1 / radius).
+    #[error("{}: {first} and {second} both have radius_mm = {radius_mm}: each sphere needs a different radius", manifest.display())]
+    DuplicateRadius {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The radius.
+        radius_mm: f32,
+        /// The first sphere's image name.
+        first: String,
+        /// The second sphere's image name.
+        second: String,
+    },
+    /// Two entries name the same image.
+    #[error("{}: {image} is listed twice (radius_mm = {first_radius_mm} and {second_radius_mm})", manifest.display())]
+    DuplicateImage {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The image name.
+        image: String,
+        /// The first entry's radius.
+        first_radius_mm: f32,
+        /// The second entry's radius.
+        second_radius_mm: f32,
+    },
+    /// An image file does not exist (or is not a file).
+    #[error("{}: {image}: no image file at {}", manifest.display(), path.display())]
+    ImageMissing {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The image name as written.
+        image: String,
+        /// Where it was looked for.
+        path: PathBuf,
+    },
+}
+
+/// File extensions counted as images when the manifest is missing.
+const IMAGE_EXTENSIONS: &[&str] = &["exr", "png", "jpg", "jpeg", "tif", "tiff"];
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawManifest {
+    camera: RawCamera,
+    light: RawLight,
+    #[serde(default)]
+    sphere: Vec<RawSphere>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCamera {
+    projection: RawProjection,
+    vertical_fov_deg: Option<f32>,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum RawProjection {
+    Orthographic,
+    Perspective,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLight {
+    to_light: [f32; 3],
+    irradiance: Option<[f32; 3]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSphere {
+    image: String,
+    radius_mm: f32,
+    center_px: Option<[f32; 2]>,
+    radius_px: Option<f32>,
+    color_space: Option<RawColorSpace>,
+    exposure: Option<f32>,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum RawColorSpace {
+    Linear,
+    Srgb,
+}
+
+impl Dataset {
+    /// Loads and validates `dir/cdrf-dataset.toml`.
+    ///
+    /// # Errors
+    /// [`DatasetError`]: the folder or the manifest is missing or unreadable, the TOML is
+    /// malformed (syntax, missing or unknown key, wrong type), a value is out of range, two
+    /// spheres share a radius or an image, there is no sphere, or an image file is missing.
+    pub fn load(dir: &Path) -> Result<Self, DatasetError> {
+        let dir = std::path::absolute(dir).map_err(|error| DatasetError::Read {
+            path: dir.to_path_buf(),
+            error,
+        })?;
+        match std::fs::metadata(&dir) {
+            Ok(meta) if meta.is_dir() => {}
+            Ok(_) => return Err(DatasetError::NotAFolder { dir }),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(DatasetError::FolderMissing { dir });
+            }
+            Err(error) => return Err(DatasetError::Read { path: dir, error }),
+        }
+        let manifest = dir.join(MANIFEST_FILE_NAME);
+        let text = match std::fs::read_to_string(&manifest) {
+            Ok(text) => text,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                let (images_found, example_image) = count_images(&dir)?;
+                return Err(DatasetError::ManifestMissing {
+                    manifest,
+                    images_found,
+                    example_image,
+                });
+            }
+            Err(error) => {
+                return Err(DatasetError::Read {
+                    path: manifest,
+                    error,
+                });
+            }
+        };
+        let raw: RawManifest = toml::from_str(&text).map_err(|e| {
+            let (line, column) = line_column(&text, e.span().map_or(0, |s| s.start));
+            DatasetError::Parse {
+                manifest: manifest.clone(),
+                line,
+                column,
+                message: e.message().trim_end().to_owned(),
+            }
+        })?;
+        let dataset = validate(raw, dir, manifest)?;
+        for sphere in &dataset.spheres {
+            if !sphere.image.is_file() {
+                return Err(DatasetError::ImageMissing {
+                    manifest: dataset.manifest.clone(),
+                    image: sphere.image_name.clone(),
+                    path: sphere.image.clone(),
+                });
+            }
+        }
+        Ok(dataset)
+    }
+}
+
+/// Counts image files in `dir` (by extension) and returns one name, sorted first.
+fn count_images(dir: &Path) -> Result<(usize, Option<String>), DatasetError> {
+    let entries = std::fs::read_dir(dir).map_err(|error| DatasetError::Read {
+        path: dir.to_path_buf(),
+        error,
+    })?;
+    let mut names: Vec<String> = entries
+        .filter_map(Result::ok)
+        .filter_map(|entry| entry.file_name().into_string().ok())
+        .filter(|name| {
+            Path::new(name)
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| IMAGE_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+        })
+        .collect();
+    names.sort();
+    Ok((names.len(), names.into_iter().next()))
+}
+
+/// 1-based line and column (in characters) of byte `offset` in `text`.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = text.get(..offset).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let column = before[line_start..].chars().count() + 1;
+    (line, column)
+}
+
+fn positive(value: f32) -> bool {
+    value.is_finite() && value > 0.0
+}
+
+fn validate(raw: RawManifest, dir: PathBuf, manifest: PathBuf) -> Result<Dataset, DatasetError> {
+    let projection = match (raw.camera.projection, raw.camera.vertical_fov_deg) {
+        (RawProjection::Orthographic, None) => Projection::Orthographic,
+        (RawProjection::Orthographic, Some(vertical_fov_deg)) => {
+            return Err(DatasetError::UnexpectedFieldOfView {
+                manifest,
+                vertical_fov_deg,
+            });
+        }
+        (RawProjection::Perspective, None) => {
+            return Err(DatasetError::MissingFieldOfView { manifest });
+        }
+        (RawProjection::Perspective, Some(vertical_fov_deg)) => {
+            if !(vertical_fov_deg.is_finite() && vertical_fov_deg > 0.0 && vertical_fov_deg < 180.0)
+            {
+                return Err(DatasetError::InvalidFieldOfView {
+                    manifest,
+                    vertical_fov_deg,
+                });
+            }
+            Projection::Perspective { vertical_fov_deg }
+        }
+    };
+
+    // Divide by the largest component first so that huge (finite) vectors normalise too.
+    let to_light = Vec3::from_array(raw.light.to_light);
+    let largest = to_light.abs().max_element();
+    if !(to_light.is_finite() && largest > 0.0) {
+        return Err(DatasetError::InvalidLightDirection {
+            manifest,
+            to_light: raw.light.to_light,
+        });
+    }
+    let to_light = (to_light / largest).normalize();
+    let irradiance = raw.light.irradiance.unwrap_or([1.0; 3]);
+    if !irradiance.iter().all(|&c| positive(c)) {
+        return Err(DatasetError::InvalidIrradiance {
+            manifest,
+            irradiance,
+        });
+    }
+
+    if raw.sphere.is_empty() {
+        return Err(DatasetError::NoSpheres { manifest });
+    }
+    let mut spheres: Vec<SphereEntry> = Vec::with_capacity(raw.sphere.len());
+    for s in raw.sphere {
+        let image = s.image;
+        if !positive(s.radius_mm) {
+            return Err(DatasetError::InvalidRadius {
+                manifest,
+                image,
+                radius_mm: s.radius_mm,
+            });
+        }
+        if let Some(radius_px) = s.radius_px
+            && !positive(radius_px)
+        {
+            return Err(DatasetError::InvalidRadiusPx {
+                manifest,
+                image,
+                radius_px,
+            });
+        }
+        if let Some(center_px) = s.center_px
+            && !center_px.iter().all(|c| c.is_finite())
+        {
+            return Err(DatasetError::InvalidCenterPx {
+                manifest,
+                image,
+                center_px,
+            });
+        }
+        let exposure = s.exposure.unwrap_or(1.0);
+        if !positive(exposure) {
+            return Err(DatasetError::InvalidExposure {
+                manifest,
+                image,
+                exposure,
+            });
+        }
+        for earlier in &spheres {
+            if earlier.image_name == image {
+                return Err(DatasetError::DuplicateImage {
+                    manifest,
+                    image,
+                    first_radius_mm: earlier.radius_mm,
+                    second_radius_mm: s.radius_mm,
+                });
+            }
+            if earlier.radius_mm == s.radius_mm {
+                return Err(DatasetError::DuplicateRadius {
+                    manifest,
+                    radius_mm: s.radius_mm,
+                    first: earlier.image_name.clone(),
+                    second: image,
+                });
+            }
+        }
+        spheres.push(SphereEntry {
+            image: dir.join(&image),
+            image_name: image,
+            radius_mm: s.radius_mm,
+            center_px: s.center_px.map(Vec2::from_array),
+            radius_px: s.radius_px,
+            color_space: s.color_space.map(|c| match c {
+                RawColorSpace::Linear => ColorSpace::Linear,
+                RawColorSpace::Srgb => ColorSpace::Srgb,
+            }),
+            exposure,
+        });
+    }
+
+    Ok(Dataset {
+        dir,
+        manifest,
+        camera: Camera { projection },
+        light: Light {
+            to_light,
+            irradiance: Vec3::from_array(irradiance),
+        },
+        spheres,
+    })
+}

@@ -1,0 +1,27 @@
+//! `cdrf-fit`: turns photographs of spheres lit by one directional light into a measured
+//! curvature-dependent reflectance function (CDRF) look-up table.
+//!
+//! ```
+//! use cdrf_fit::dataset::Dataset;
+//! use cdrf_fit::image_io::load_linear_image;
+//!
+//! let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/wax-spheres");
+//! let dataset = Dataset::load(&dir)?;
+//! let sphere = &dataset.spheres[0];
+//! let image = load_linear_image(&sphere.image, sphere.color_space, sphere.exposure)?;
+//! println!("{} mm: {} × {} px", sphere.radius_mm, image.width, image.height);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod curves;
+pub mod dataset;
+pub mod evaluate;
+pub mod fit;
+pub mod gaussian_fit;
+pub mod image_io;
+pub mod outputs;
+pub mod plot;
+pub mod sphere;
+pub mod table;
+
+pub use fit::{Fit, FitError, FitOptions, fit_dataset};

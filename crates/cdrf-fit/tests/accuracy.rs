@@ -1,0 +1,303 @@
+//! Accuracy of the fit on the bundled path-traced wax spheres and on synthetic truth.
+//!
+//! Errors are measured on 8 × 8 pixel blocks (see `cdrf_fit::evaluate`): the data has ~7 %
+//! relative noise per pixel on the lit side, so single pixels would measure the noise.
+
+use std::f32::consts::FRAC_PI_2;
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use cdrf_core::Cdrf;
+use cdrf_core::gaussian::GaussianCdrf;
+use cdrf_core::lut::Filter;
+use cdrf_fit::curves::{CurveSettings, SphereSamples, ViewModel};
+use cdrf_fit::dataset::{Dataset, Projection};
+use cdrf_fit::evaluate::sphere_error;
+use cdrf_fit::fit::{Fit, Timings, fit_samples};
+use cdrf_fit::sphere::{Circle, Sample, SphereView};
+use cdrf_fit::{FitOptions, fit_dataset};
+use glam::{Vec2, Vec3};
+
+fn wax_dir() -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/wax-spheres");
+    assert!(
+        dir.join("cdrf-dataset.toml").is_file(),
+        "bundled data set missing at {}",
+        dir.display()
+    );
+    dir
+}
+
+/// The full fit of the bundled data set, shared by the tests that only read it.
+fn wax_fit() -> &'static Fit {
+    static FIT: OnceLock<Fit> = OnceLock::new();
+    FIT.get_or_init(|| {
+        let dataset = Dataset::load(&wax_dir()).expect("bundled manifest loads");
+        fit_dataset(&dataset, &FitOptions::default(), |_| {}).expect("bundled data set fits")
+    })
+}
+
+#[test]
+fn detection_finds_the_documented_circles() {
+    // The data set's sidecars: every sphere is a disk of radius 230 px centred at (256, 256).
+    for sphere in &wax_fit().spheres {
+        let detected = sphere.detected.expect("detected");
+        let offset = Vec2::from_array(detected.center_px) - Vec2::new(256.0, 256.0);
+        println!(
+            "{}: centre off by ({:.3}, {:.3}) px, radius off by {:.3} px, edge RMS {:.3} px",
+            sphere.image,
+            offset.x,
+            offset.y,
+            detected.radius_px - 230.0,
+            detected.rms_residual_px
+        );
+        assert!(
+            offset.length() < 0.4,
+            "{}: centre off by {offset}",
+            sphere.image
+        );
+        assert!(
+            (detected.radius_px - 230.0).abs() < 0.4,
+            "{}: radius {}",
+            sphere.image,
+            detected.radius_px
+        );
+    }
+}
+
+#[test]
+fn self_consistency_within_three_percent_on_lit_and_terminator() {
+    let fit = wax_fit();
+    println!("radius  lit+terminator mean rel. error  (lit, terminator, shadow)");
+    for (sphere, errors) in fit.spheres.iter().zip(&fit.errors) {
+        let e = &errors.measured;
+        println!(
+            "{:>4} mm  {:.2} %  ({:.2} %, {:.2} %, {:.1} %)",
+            sphere.radius_mm,
+            100.0 * e.lit_and_terminator.mean_relative_error,
+            100.0 * e.lit.mean_relative_error,
+            100.0 * e.terminator.mean_relative_error,
+            100.0 * e.shadow.mean_relative_error
+        );
+        assert!(
+            e.lit_and_terminator.blocks > 500,
+            "too few blocks: {}",
+            e.lit_and_terminator.blocks
+        );
+        assert!(
+            e.lit_and_terminator.mean_relative_error <= 0.03,
+            "r = {} mm: {:.2} % > 3 %",
+            sphere.radius_mm,
+            100.0 * e.lit_and_terminator.mean_relative_error
+        );
+    }
+}
+
+#[test]
+fn measured_error_is_at_most_half_the_gaussian_cdrf_error_at_every_radius() {
+    let fit = wax_fit();
+    println!(
+        "Gaussian CDRF fitted to the same photos: sigma_mm {:?}, scale {:?}",
+        fit.gaussian.model.sigma_mm(),
+        fit.gaussian.model.scale()
+    );
+    println!("radius  relative RMS: measured  Gaussian  ratio");
+    for (sphere, errors) in fit.spheres.iter().zip(&fit.errors) {
+        let (measured, gaussian) = (
+            errors.measured.whole.relative_rms,
+            errors.gaussian.whole.relative_rms,
+        );
+        println!(
+            "{:>4} mm  {:.2} %  {:.2} %  {:.3}",
+            sphere.radius_mm,
+            100.0 * measured,
+            100.0 * gaussian,
+            measured / gaussian
+        );
+        assert!(
+            measured <= 0.5 * gaussian,
+            "r = {} mm: {measured} vs {gaussian}",
+            sphere.radius_mm
+        );
+    }
+}
+
+#[test]
+fn theta_dependent_view_correction_lowers_the_residual() {
+    let fit = wax_fit();
+    for (sphere, errors) in fit.spheres.iter().zip(&fit.errors) {
+        let (poster, chosen) = (
+            errors
+                .poster_view_fit
+                .lit_and_terminator
+                .mean_relative_error,
+            errors
+                .chosen_view_fit
+                .lit_and_terminator
+                .mean_relative_error,
+        );
+        println!(
+            "{:>4} mm: g(φ) {:.2} %, g(φ)·c(θ, φ) {:.2} %",
+            sphere.radius_mm,
+            100.0 * poster,
+            100.0 * chosen
+        );
+        assert!(
+            chosen < poster,
+            "r = {} mm: {chosen} ≥ {poster}",
+            sphere.radius_mm
+        );
+    }
+}
+
+#[test]
+fn leaving_one_radius_out_still_reproduces_it() {
+    let full = wax_fit();
+    let options = FitOptions::default();
+    println!("radius  self-consistency  left out (lit+terminator mean rel. error)");
+    // The end radii would need extrapolation past the measured curvatures (the table clamps), so
+    // the interpolation is judged on the six interior ones.
+    for left_out in 1..full.samples.len() - 1 {
+        let kept: Vec<SphereSamples> = full
+            .samples
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != left_out)
+            .map(|(_, s)| s.clone())
+            .collect();
+        let reports = full
+            .spheres
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != left_out)
+            .map(|(_, s)| s.clone())
+            .collect();
+        let fit = fit_samples(kept, reports, &options, Timings::default()).unwrap();
+        let sphere = &full.samples[left_out];
+        let error = sphere_error(sphere, |theta, phi| {
+            fit.lut
+                .evaluate(sphere.curvature_per_mm, theta, phi, Filter::Bilinear)
+        });
+        let own = full.errors[left_out]
+            .measured
+            .lit_and_terminator
+            .mean_relative_error;
+        let out = error.lit_and_terminator.mean_relative_error;
+        println!(
+            "{:>4} mm  {:.2} %  {:.2} %",
+            full.spheres[left_out].radius_mm,
+            100.0 * own,
+            100.0 * out
+        );
+        assert!(
+            out <= 0.04,
+            "r = {} mm left out: {:.2} %",
+            full.spheres[left_out].radius_mm,
+            100.0 * out
+        );
+    }
+}
+
+/// A sphere of radius `radius_mm` "photographed" like the data set (orthographic, 512², radius
+/// 230 px, lit from the left) from a known CDRF and view correction, at pixel centres.
+fn synthetic_sphere(model: &impl Cdrf, g: impl Fn(f32) -> Vec3, radius_mm: f32) -> SphereSamples {
+    let view = SphereView::new(
+        Circle {
+            center_px: Vec2::splat(256.0),
+            radius_px: 230.0,
+        },
+        Projection::Orthographic,
+        512,
+        512,
+    );
+    let to_light = Vec3::new(-1.0, 0.0, 0.0);
+    let mut samples = Vec::new();
+    for row in 0..512 {
+        for column in 0..512 {
+            let Some(point) = view.point(column, row) else {
+                continue;
+            };
+            if point.inside_by_px < 2.0 {
+                continue;
+            }
+            let theta = point.normal.dot(to_light).clamp(-1.0, 1.0).acos();
+            let phi = point.normal.dot(point.to_camera).clamp(-1.0, 1.0).acos();
+            samples.push(Sample {
+                theta_rad: theta,
+                phi_rad: phi,
+                radiance: Vec3::from_array(model.reflectance(1.0 / radius_mm, theta)) * g(phi),
+                pixel: (row * 512 + column) as u32,
+            });
+        }
+    }
+    SphereSamples {
+        curvature_per_mm: 1.0 / radius_mm,
+        image_width: 512,
+        samples,
+    }
+}
+
+#[test]
+fn synthetic_truth_is_fitted_back_within_half_a_percent() {
+    let truth = GaussianCdrf::with_scale([9.0, 6.0, 4.0], [0.9, 0.85, 0.8]).unwrap();
+    let g = |phi: f32| Vec3::new(1.0, 1.0, 1.0) + Vec3::new(0.10, 0.15, 0.20) * (1.0 - phi.cos());
+    let radii = [15.0_f32, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0];
+    let samples: Vec<SphereSamples> = radii
+        .iter()
+        .map(|&r| synthetic_sphere(&truth, g, r))
+        .collect();
+    let reports = Vec::new();
+    let options = FitOptions {
+        curves: CurveSettings {
+            view_model: ViewModel::Phi,
+            ..CurveSettings::default()
+        },
+        ..FitOptions::default()
+    };
+    let fit = fit_samples(samples, reports, &options, Timings::default()).unwrap();
+
+    // f at every sphere's curvature, over the θ the photographs cover, where it is not tiny.
+    let mut worst_f = 0.0_f32;
+    for &r in &radii {
+        for degrees in 15..=165 {
+            let theta = (degrees as f32).to_radians();
+            let expected = Vec3::from_array(truth.reflectance(1.0 / r, theta));
+            let found = fit.lut.sample(1.0 / r, theta, Filter::Bilinear);
+            for c in 0..3 {
+                if expected[c] > 1e-2 * truth.scale()[c] {
+                    worst_f = worst_f.max((found[c] / expected[c] - 1.0).abs());
+                }
+            }
+        }
+    }
+    let mut worst_g = 0.0_f32;
+    for degrees in 0..=80 {
+        let phi = (degrees as f32).to_radians();
+        let found = fit.lut.view_correction().sample(FRAC_PI_2, phi);
+        worst_g = worst_g.max(((found / g(phi)) - Vec3::ONE).abs().max_element());
+    }
+    println!(
+        "synthetic truth: worst relative error of f {:.3} %, of g(φ) {:.3} %",
+        100.0 * worst_f,
+        100.0 * worst_g
+    );
+    assert!(worst_f <= 0.005, "f off by {:.3} %", 100.0 * worst_f);
+    assert!(worst_g <= 0.005, "g off by {:.3} %", 100.0 * worst_g);
+}
+
+#[test]
+fn one_sphere_gives_a_curvature_independent_table() {
+    let truth = GaussianCdrf::new([6.0, 6.0, 6.0]).unwrap();
+    let sphere = synthetic_sphere(&truth, |_| Vec3::ONE, 25.0);
+    let options = FitOptions {
+        curves: CurveSettings {
+            view_model: ViewModel::Phi,
+            ..CurveSettings::default()
+        },
+        ..FitOptions::default()
+    };
+    let fit = fit_samples(vec![sphere], Vec::new(), &options, Timings::default()).unwrap();
+    assert_eq!(fit.lut.curvature_axis().count, 1);
+    let at = |k: f32| fit.lut.sample(k, 1.7, Filter::Bilinear);
+    assert_eq!(at(0.01), at(0.2));
+}
