@@ -15,8 +15,17 @@ pub fn write_file(path: &Path, write: impl FnOnce(&mut File) -> io::Result<()>) 
         Some(parent) if !parent.as_os_str().is_empty() => parent,
         _ => Path::new("."),
     };
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".cdrf-partial-");
+    // Temporary files default to owner-only; the result should be an ordinary file (the umask
+    // still applies).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
     // Dropped (and deleted) on every early return.
-    let mut temporary = tempfile::NamedTempFile::new_in(directory)?;
+    let mut temporary = builder.tempfile_in(directory)?;
     write(temporary.as_file_mut())?;
     temporary.as_file().sync_all()?;
     temporary.persist(path).map_err(|error| error.error)?;

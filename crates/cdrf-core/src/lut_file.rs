@@ -163,7 +163,11 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
     };
     let find = |name: &str| {
         image.layer_data.iter().find(|layer| {
-            layer.attributes.layer_name.as_ref().is_some_and(|n| n == name)
+            layer
+                .attributes
+                .layer_name
+                .as_ref()
+                .is_some_and(|n| n == name)
         })
     };
     let lut_layer = find(LUT_LAYER).ok_or_else(|| not_ours(format!("no `{LUT_LAYER}` layer")))?;

@@ -105,8 +105,7 @@ impl CurveFit {
     }
 
     fn view_factor_at(&self, basis: &Basis) -> Vec3 {
-        let g = self.g_phi[basis.phi.0] * (1.0 - basis.phi.1)
-            + self.g_phi[basis.phi.0 + 1] * basis.phi.1;
+        let g = hat(&self.g_phi, basis.phi);
         match &self.correction {
             None => g,
             Some(c) => g * basis.coarse.evaluate(c),
@@ -121,15 +120,16 @@ impl CurveFit {
 }
 
 /// A node index and the weight of the next node: value = v[i]·(1 − t) + v[i + 1]·t.
-type Hat = (usize, f32);
+type Hat = (u32, f32);
 
 fn hat_coordinate(value: f32, extent: f32, count: usize) -> Hat {
     let u = (value / extent * (count - 1) as f32).clamp(0.0, (count - 1) as f32);
     let i = (u as usize).min(count - 2);
-    (i, u - i as f32)
+    (i as u32, u - i as f32)
 }
 
 fn hat(values: &[Vec3], (i, t): Hat) -> Vec3 {
+    let i = i as usize;
     values[i] * (1.0 - t) + values[i + 1] * t
 }
 
@@ -143,6 +143,7 @@ struct Coarse {
 impl Coarse {
     fn nodes(&self) -> [(usize, f32); 4] {
         let ((a, ta), (b, tb)) = (self.theta, self.phi);
+        let (a, b) = (a as usize, b as usize);
         let at = |a: usize, b: usize| a * CORRECTION_PHI_COUNT + b;
         [
             (at(a, b), (1.0 - ta) * (1.0 - tb)),
@@ -240,14 +241,7 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
     // correction last (it only refines what the poster's model leaves).
     let mut noise = vec![[Vec3::ONE; BANDS]; spheres.len()];
     // (re-estimate weights first, and drop outliers while doing so)
-    let stages = [
-        (false, false),
-        (false, false),
-        (true, false),
-        (true, true),
-        (true, false),
-        (false, false),
-    ];
+    let stages = [(false, false), (true, false), (true, true), (true, false)];
     for (reweight, reject) in stages {
         if reweight {
             reweight_points(&fit, &mut points, &mut noise, reject);
@@ -276,11 +270,11 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
         Vec3::ONE;
         CORRECTION_THETA_COUNT * CORRECTION_PHI_COUNT
     ]);
-    for round in 0..4 {
+    for round in 0..3 {
         fit_correction(&mut fit, &points);
         fit_f(&mut fit, &points);
         fit_g(&mut fit, &points);
-        if round == 1 {
+        if round == 0 {
             reweight_points(&fit, &mut points, &mut noise, false);
         }
     }
@@ -298,6 +292,7 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
         let mut counts = vec![0.0_f32; theta_count];
         for p in sphere_points {
             let (a, t) = p.basis.theta;
+            let a = a as usize;
             counts[a] += 1.0 - t;
             counts[a + 1] += t;
         }
@@ -334,7 +329,8 @@ fn reweight_points(
             // Relative deviations per band and channel, only where the model is above its floor
             // (below it the ratio measures the floor, not the noise).
             let mut deviations: Vec<[Vec<f32>; 3]> = vec![Default::default(); BANDS];
-            for p in sphere_points.iter() {
+            // Every 4th sample is plenty for a median (thousands per band).
+            for p in sphere_points.iter().step_by(4) {
                 let m = hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(&p.basis);
                 for c in 0..3 {
                     if m[c] > floor[c] {
@@ -417,6 +413,8 @@ fn fit_f(fit: &mut CurveFit, points: &[Vec<Point>]) {
             for p in sphere_points {
                 let view = fit.view_factor_at(&p.basis);
                 let (a, t) = p.basis.theta;
+                let a = a as usize;
+                let a = a as usize;
                 let (b0, b1) = (1.0 - t, t);
                 let wv = p.weight * view;
                 let wvv = wv * view;
@@ -456,6 +454,7 @@ fn fit_g(fit: &mut CurveFit, points: &[Vec<Point>]) {
                     f *= p.basis.coarse.evaluate(c);
                 }
                 let (b, t) = p.basis.phi;
+                let b = b as usize;
                 let (b0, b1) = (1.0 - t, t);
                 let wf = p.weight * f;
                 let wff = wf * f;
@@ -498,9 +497,9 @@ fn fit_correction(fit: &mut CurveFit, points: &[Vec<Point>]) {
         .enumerate()
         .map(|(k, sphere_points)| {
             let (mut matrix, mut rhs) = zero();
-            for p in sphere_points {
-                let (a, t) = p.basis.phi;
-                let g = fit.g_phi[a] * (1.0 - t) + fit.g_phi[a + 1] * t;
+            // c lives on a 10° grid: every other sample still gives it thousands per node.
+            for p in sphere_points.iter().step_by(2) {
+                let g = hat(&fit.g_phi, p.basis.phi);
                 let fg = hat(&fit.curves[k], p.basis.theta) * g;
                 let wfg = p.weight * fg;
                 let nodes = p.basis.coarse.nodes();

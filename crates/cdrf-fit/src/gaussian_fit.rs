@@ -81,66 +81,69 @@ pub fn fit_gaussian(
         })
         .collect();
 
-    let mut sigma_mm = [0.0_f32; 3];
-    let mut scale = [0.0_f32; 3];
-    let mut relative_rms = [0.0_f32; 3];
-    for c in 0..3 {
-        let normals: Vec<&Normal> = per_sphere.iter().map(|(normals, _)| &normals[c]).collect();
-        let energy: f64 = per_sphere.iter().map(|(_, e)| e[c]).sum();
-        // For a σ: (Σ Kᵀr, Σ KᵀMK).
-        let moments = |sigma: f64| -> (f64, f64) {
-            normals
-                .iter()
-                .map(|normal| {
-                    let kernel: Vec<f64> = theta_nodes
-                        .iter()
-                        .map(|&theta| {
-                            convolved_clamped_cosine(theta, sigma * normal.curvature_per_mm)
-                        })
-                        .collect();
-                    let mut k_r = 0.0;
-                    let mut k_m_k = 0.0;
-                    for a in 0..n {
-                        k_r += kernel[a] * normal.rhs[a];
-                        k_m_k += kernel[a] * kernel[a] * normal.diagonal[a];
-                        if a + 1 < n {
-                            k_m_k += 2.0 * kernel[a] * kernel[a + 1] * normal.upper[a];
+    // Channels are independent: fit them in parallel. Each gives (σ, scale, relative RMS).
+    let per_channel: Vec<(f32, f32, f32)> = (0..3_usize)
+        .into_par_iter()
+        .map(|c| {
+            let normals: Vec<&Normal> = per_sphere.iter().map(|(normals, _)| &normals[c]).collect();
+            let energy: f64 = per_sphere.iter().map(|(_, e)| e[c]).sum();
+            // For a σ: (Σ Kᵀr, Σ KᵀMK).
+            let moments = |sigma: f64| -> (f64, f64) {
+                normals
+                    .iter()
+                    .map(|normal| {
+                        let kernel: Vec<f64> = theta_nodes
+                            .iter()
+                            .map(|&theta| {
+                                convolved_clamped_cosine(theta, sigma * normal.curvature_per_mm)
+                            })
+                            .collect();
+                        let mut k_r = 0.0;
+                        let mut k_m_k = 0.0;
+                        for a in 0..n {
+                            k_r += kernel[a] * normal.rhs[a];
+                            k_m_k += kernel[a] * kernel[a] * normal.diagonal[a];
+                            if a + 1 < n {
+                                k_m_k += 2.0 * kernel[a] * kernel[a + 1] * normal.upper[a];
+                            }
                         }
-                    }
-                    (k_r, k_m_k)
-                })
-                .fold((0.0, 0.0), |acc, m| (acc.0 + m.0, acc.1 + m.1))
-        };
-        // The error is energy − (Kᵀr)²/KᵀMK: maximise the explained part.
-        let explained = |log_sigma: f64| {
-            let (k_r, k_m_k) = moments(log_sigma.exp());
-            if k_m_k > 0.0 { k_r * k_r / k_m_k } else { 0.0 }
-        };
-        let (lo, hi) = (SIGMA_RANGE_MM.0.ln(), SIGMA_RANGE_MM.1.ln());
-        let steps = 48;
-        let grid: Vec<f64> = (0..=steps)
-            .map(|i| lo + (hi - lo) * i as f64 / steps as f64)
-            .collect();
-        let best = grid
-            .iter()
-            .copied()
-            .max_by(|&a, &b| explained(a).total_cmp(&explained(b)))
-            .unwrap_or(lo);
-        let step = (hi - lo) / steps as f64;
-        let log_sigma =
-            golden_section_max(&explained, (best - step).max(lo), (best + step).min(hi));
-        let sigma = log_sigma.exp();
-        let (k_r, k_m_k) = moments(sigma);
-        let fitted_scale = if k_m_k > 0.0 { k_r / k_m_k } else { 0.0 };
-        let residual = (energy - fitted_scale * k_r).max(0.0);
-        sigma_mm[c] = sigma as f32;
-        scale[c] = fitted_scale as f32;
-        relative_rms[c] = if energy > 0.0 {
-            (residual / energy).sqrt() as f32
-        } else {
-            0.0
-        };
-    }
+                        (k_r, k_m_k)
+                    })
+                    .fold((0.0, 0.0), |acc, m| (acc.0 + m.0, acc.1 + m.1))
+            };
+            // The error is energy − (Kᵀr)²/KᵀMK: maximise the explained part.
+            let explained = |log_sigma: f64| {
+                let (k_r, k_m_k) = moments(log_sigma.exp());
+                if k_m_k > 0.0 { k_r * k_r / k_m_k } else { 0.0 }
+            };
+            let (lo, hi) = (SIGMA_RANGE_MM.0.ln(), SIGMA_RANGE_MM.1.ln());
+            let steps = 32;
+            let grid: Vec<f64> = (0..=steps)
+                .map(|i| lo + (hi - lo) * i as f64 / steps as f64)
+                .collect();
+            let best = grid
+                .iter()
+                .copied()
+                .max_by(|&a, &b| explained(a).total_cmp(&explained(b)))
+                .unwrap_or(lo);
+            let step = (hi - lo) / steps as f64;
+            let log_sigma =
+                golden_section_max(&explained, (best - step).max(lo), (best + step).min(hi));
+            let sigma = log_sigma.exp();
+            let (k_r, k_m_k) = moments(sigma);
+            let fitted_scale = if k_m_k > 0.0 { k_r / k_m_k } else { 0.0 };
+            let residual = (energy - fitted_scale * k_r).max(0.0);
+            let relative_rms = if energy > 0.0 {
+                (residual / energy).sqrt()
+            } else {
+                0.0
+            };
+            (sigma as f32, fitted_scale as f32, relative_rms as f32)
+        })
+        .collect();
+    let sigma_mm = [0, 1, 2].map(|c| per_channel[c].0);
+    let scale = [0, 1, 2].map(|c| per_channel[c].1);
+    let relative_rms = [0, 1, 2].map(|c| per_channel[c].2);
     Ok(GaussianFit {
         model: GaussianCdrf::with_scale(sigma_mm, scale)?,
         relative_rms,
@@ -152,7 +155,7 @@ fn golden_section_max(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
     let mut c = b - ratio * (b - a);
     let mut d = a + ratio * (b - a);
     let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..40 {
+    for _ in 0..30 {
         if fc > fd {
             b = d;
             d = c;

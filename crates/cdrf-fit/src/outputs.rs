@@ -7,7 +7,7 @@
 //! | `report.json` | per-radius curves, sample counts, residuals, g(φ), errors, timings ([`Report`]) |
 //! | `radiance_vs_theta.svg` | radiance against θ per radius, raw (all φ) and φ-corrected: the poster's Fig. 2 |
 //! | `view_correction.svg` | g(φ), and the θ-dependent correction at a few θ |
-//! | `lut.png` | a picture of the table (θ across, κ down, sRGB, exposure ×1) |
+//! | `lut.png` | a picture of the table (θ across, κ down): in colour, and log₁₀ of green below |
 //!
 //! Every file is written atomically (temporary file, then rename).
 
@@ -21,7 +21,9 @@ use serde::{Deserialize, Serialize};
 use crate::curves::{CORRECTION_PHI_COUNT, ViewModel};
 use crate::evaluate::SphereError;
 use crate::fit::{Fit, ModelErrors, SphereReport, Timings};
-use crate::plot::{Colormap, LinePlot, LineStyle, Series, rgb_png_srgb, upscale_nearest};
+use crate::plot::{
+    ColorScale, Colormap, LinePlot, LineStyle, Series, heatmap_png, rgb_png_srgb, upscale_nearest,
+};
 use crate::table::smooth_curve;
 
 /// The measured LUT.
@@ -438,14 +440,21 @@ fn view_plot(fit: &Fit) -> String {
     plot.to_svg()
 }
 
-/// The table in colour (sRGB, exposure chosen so the lit side is bright), 4× enlarged.
+/// The table as a picture, θ across (0° left, 180° right), κ down (flattest at the top): above,
+/// in colour (sRGB, exposure 1, as a white-lit surface would look); below, log₁₀ of the green
+/// channel over six decades (inferno), so the shadow side shows.
 fn lut_picture(fit: &Fit) -> image::RgbImage {
     let lut = &fit.lut;
-    let picture = rgb_png_srgb(
-        lut.radiance(),
-        lut.theta_count(),
-        lut.curvature_axis().count,
-        1.0,
-    );
-    upscale_nearest(&picture, 4, 4)
+    let (width, height) = (lut.theta_count(), lut.curvature_axis().count);
+    let colour = upscale_nearest(&rgb_png_srgb(lut.radiance(), width, height, 1.0), 2, 4);
+    let green: Vec<f32> = lut.radiance().iter().map(|v| v.y).collect();
+    let peak = green.iter().copied().fold(0.0_f32, f32::max).max(1e-12);
+    let scale = ColorScale::log()
+        .with_colormap(Colormap::Inferno)
+        .with_range(peak * 1e-6, peak);
+    let log = upscale_nearest(&heatmap_png(&green, width, height, scale), 2, 4);
+    let mut picture = image::RgbImage::new(colour.width(), colour.height() * 2 + 4);
+    image::imageops::replace(&mut picture, &colour, 0, 0);
+    image::imageops::replace(&mut picture, &log, 0, i64::from(colour.height()) + 4);
+    picture
 }
