@@ -65,20 +65,20 @@ const COVERAGE_SPREAD: &str = "coverage.spread";
 #[non_exhaustive]
 pub enum LutFileError {
     /// The file system refused (missing file, permissions, full disk).
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {error}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
         /// What the OS said.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The file is not a readable OpenEXR image (truncated, corrupt, another format).
-    #[error("{}: not a readable OpenEXR file: {source}", path.display())]
+    #[error("{}: not a readable OpenEXR file: {error}", path.display())]
     Exr {
         /// The file.
         path: PathBuf,
         /// What the decoder said.
-        source: exr::error::Error,
+        error: exr::error::Error,
     },
     /// An OpenEXR file, but not a cdrf LUT, or one written under other conventions.
     #[error("{}: not a cdrf LUT: {reason}", path.display())]
@@ -100,12 +100,12 @@ pub enum LutFileError {
         found: i32,
     },
     /// The table in the file is malformed (wrong shape, negative or non-finite values).
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {error}", path.display())]
     InvalidTable {
         /// The file.
         path: PathBuf,
         /// What is wrong with the table.
-        source: LutError,
+        error: LutError,
     },
 }
 
@@ -128,9 +128,9 @@ pub fn write_lut(lut: &CdrfLut, path: impl AsRef<Path>) -> Result<(), LutFileErr
             .map_err(std::io::Error::other)?;
         writer.flush()
     })
-    .map_err(|source| LutFileError::Io {
+    .map_err(|error| LutFileError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })
 }
 
@@ -141,9 +141,9 @@ pub fn write_lut(lut: &CdrfLut, path: impl AsRef<Path>) -> Result<(), LutFileErr
 /// version, or holds a malformed table.
 pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| LutFileError::Io {
+    let bytes = std::fs::read(path).map_err(|error| LutFileError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     let image = exr::prelude::read()
         .no_deep_data()
@@ -153,9 +153,9 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
         .all_attributes()
         .non_parallel()
         .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|source| LutFileError::Exr {
+        .map_err(|error| LutFileError::Exr {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
     let not_ours = |reason: String| LutFileError::NotACdrfLut {
         path: path.to_path_buf(),
@@ -237,9 +237,9 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
                 .collect(),
         )
     };
-    let invalid = |source: LutError| LutFileError::InvalidTable {
+    let invalid = |error: LutError| LutFileError::InvalidTable {
         path: path.to_path_buf(),
-        source,
+        error,
     };
     let mut lut = CdrfLut::new(axis, theta_count, rgb(LUT_LAYER, channels)?).map_err(invalid)?;
 

@@ -414,7 +414,6 @@ fn fit_f(fit: &mut CurveFit, points: &[Vec<Point>]) {
                 let view = fit.view_factor_at(&p.basis);
                 let (a, t) = p.basis.theta;
                 let a = a as usize;
-                let a = a as usize;
                 let (b0, b1) = (1.0 - t, t);
                 let wv = p.weight * view;
                 let wvv = wv * view;

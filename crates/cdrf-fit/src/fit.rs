@@ -52,12 +52,12 @@ pub enum FitError {
     #[error(transparent)]
     Image(#[from] ImageError),
     /// No sphere was found in an image.
-    #[error("{image}: {source}")]
+    #[error("{image}: {error}")]
     Detection {
         /// The image.
         image: String,
         /// Why.
-        source: DetectionError,
+        error: DetectionError,
     },
     /// The manifest's circle and the detected one disagree.
     #[error(
@@ -244,7 +244,7 @@ fn sample_entry(
         (Err(error), _, _) => {
             return Err(FitError::Detection {
                 image: entry.image_name.clone(),
-                source: error.clone(),
+                error: error.clone(),
             });
         }
     };

@@ -11,7 +11,7 @@ use anyhow::{Context, bail};
 use cdrf_fit::curves::ViewModel;
 use cdrf_fit::dataset::Dataset;
 use cdrf_fit::fit::Progress;
-use cdrf_fit::outputs::{Report, view_model_name, write_outputs};
+use cdrf_fit::outputs::{Report, check_output_dir, view_model_name, write_outputs};
 use cdrf_fit::{FitOptions, fit_dataset};
 use clap::{Parser, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -91,6 +91,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     options.curvature_count = args.curvature_count;
 
     let dataset = Dataset::load(&args.dir)?;
+    check_output_dir(&dataset.dir, &args.out)?;
     let bar = if args.quiet {
         ProgressBar::hidden()
     } else {

@@ -56,20 +56,26 @@ pub struct GaussianParameters {
 #[non_exhaustive]
 pub enum OutputError {
     /// The output folder could not be created or a file not written.
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {error}", path.display())]
     Io {
         /// The file or folder.
         path: PathBuf,
         /// What the OS said.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The LUT could not be written.
     #[error(transparent)]
     Lut(#[from] cdrf_core::lut_file::LutFileError),
-    /// The output folder is the input folder (the input folder is never written to).
-    #[error("{}: the output folder must not be the data set folder", path.display())]
+    /// The output folder is the input folder or inside it (the input folder is never written to).
+    #[error("{}: the output folder must not be the data set folder or inside it", path.display())]
     IntoInput {
         /// The folder.
+        path: PathBuf,
+    },
+    /// The output path is an existing file.
+    #[error("{}: exists and is not a folder", path.display())]
+    NotAFolder {
+        /// The path.
         path: PathBuf,
     },
 }
@@ -245,12 +251,51 @@ impl Report {
 }
 
 fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    cdrf_core::atomic::write_file(path, |file| file.write_all(bytes)).map_err(|source| {
+    cdrf_core::atomic::write_file(path, |file| file.write_all(bytes)).map_err(|error| {
         OutputError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         }
     })
+}
+
+/// Checks, before any work, that `out_dir` can take the outputs: it is not the data set folder
+/// or inside it (the input folder is never written to), and it is not an existing file.
+///
+/// # Errors
+/// [`OutputError::IntoInput`] or [`OutputError::NotAFolder`].
+pub fn check_output_dir(dataset_dir: &Path, out_dir: &Path) -> Result<(), OutputError> {
+    if out_dir.exists() && !out_dir.is_dir() {
+        return Err(OutputError::NotAFolder {
+            path: out_dir.to_path_buf(),
+        });
+    }
+    // Resolve the deepest existing ancestor (the folder may not exist yet), then the rest.
+    let absolute = std::path::absolute(out_dir).unwrap_or_else(|_| out_dir.to_path_buf());
+    let mut existing = absolute.as_path();
+    let mut rest = Vec::new();
+    while !existing.exists() {
+        match (existing.parent(), existing.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_os_string());
+                existing = parent;
+            }
+            _ => break,
+        }
+    }
+    let mut resolved = existing
+        .canonicalize()
+        .unwrap_or_else(|_| existing.to_path_buf());
+    resolved.extend(rest.iter().rev());
+    let input = dataset_dir
+        .canonicalize()
+        .unwrap_or_else(|_| dataset_dir.to_path_buf());
+    if resolved.starts_with(&input) {
+        return Err(OutputError::IntoInput {
+            path: out_dir.to_path_buf(),
+        });
+    }
+    Ok(())
 }
 
 /// Writes every output of `fit` into `out_dir` (created if missing). Returns the files written.
@@ -262,19 +307,11 @@ pub fn write_outputs(
     dataset_dir: &Path,
     out_dir: &Path,
 ) -> Result<Vec<PathBuf>, OutputError> {
-    std::fs::create_dir_all(out_dir).map_err(|source| OutputError::Io {
+    check_output_dir(dataset_dir, out_dir)?;
+    std::fs::create_dir_all(out_dir).map_err(|error| OutputError::Io {
         path: out_dir.to_path_buf(),
-        source,
+        error,
     })?;
-    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    };
-    if same(out_dir, dataset_dir) {
-        return Err(OutputError::IntoInput {
-            path: out_dir.to_path_buf(),
-        });
-    }
     let view_model = fit.curves.chosen.settings.view_model;
     let lut = fit
         .lut
@@ -310,7 +347,7 @@ pub fn write_outputs(
     let report = Report::new(fit, dataset_dir);
     let json = serde_json::to_vec_pretty(&report).map_err(|e| OutputError::Io {
         path: out_dir.join(REPORT),
-        source: e.into(),
+        error: e.into(),
     })?;
     put(REPORT, &json)?;
     put(RADIANCE_PLOT, radiance_plot(fit).as_bytes())?;
@@ -322,7 +359,7 @@ pub fn write_outputs(
         .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
         .map_err(|e| OutputError::Io {
             path: out_dir.join(LUT_PICTURE),
-            source: std::io::Error::other(e),
+            error: std::io::Error::other(e),
         })?;
     put(LUT_PICTURE, &png)?;
     Ok(written)

@@ -18,8 +18,8 @@
 //! - **Orthographic**: the normal at a pixel is `((u − cx)/R, −(v − cy)/R, √(1 − …))` and the
 //!   view vector is `(0, 0, 1)`.
 //! - **Perspective** (vertical field of view, principal point at the image centre): the sphere
-//!   lies along the ray through the circle's centre at the distance that makes its angular
-//!   radius match the circle's; each pixel's ray is intersected with it, and the view vector is
+//!   lies along the axis of the cone of rays through its silhouette, at the distance that makes
+//!   its angular radius match; each pixel's ray is intersected with it, and the view vector is
 //!   the reversed ray. (A sphere off the optical axis images as a slight ellipse; the fitted
 //!   circle is its best circle, which is exact on the axis.)
 
@@ -392,15 +392,20 @@ impl SphereView {
                 let ray = |p: Vec2| {
                     Vec3::new(p.x - principal_px.x, principal_px.y - p.y, -focal_px).normalize()
                 };
-                let axis = ray(circle.center_px);
-                // Angular radius: mean angle between the axis and rays through the silhouette.
+                // The silhouette rays form a circular cone around the sphere's direction: its
+                // axis is their normalised mean (the ray through the image circle's centre is
+                // off for a sphere off the optical axis, which images as an ellipse).
                 let samples = 64;
-                let angle = (0..samples)
+                let boundary: Vec<Vec3> = (0..samples)
                     .map(|k| {
                         let t = k as f32 / samples as f32 * std::f32::consts::TAU;
-                        let p = circle.center_px + circle.radius_px * Vec2::new(t.cos(), t.sin());
-                        axis.dot(ray(p)).clamp(-1.0, 1.0).acos()
+                        ray(circle.center_px + circle.radius_px * Vec2::new(t.cos(), t.sin()))
                     })
+                    .collect();
+                let axis = boundary.iter().sum::<Vec3>().normalize();
+                let angle = boundary
+                    .iter()
+                    .map(|r| axis.dot(*r).clamp(-1.0, 1.0).acos())
                     .sum::<f32>()
                     / samples as f32;
                 Some(PerspectiveSphere {

@@ -494,10 +494,11 @@ fn duplicate_radii() {
 fn output_folder_must_not_be_the_input_folder() {
     let cmd = TestCommand::with_spheres(&[15, 50]);
     let before = snapshot(&cmd.data());
-    // The same folder, given as is and through `..`.
+    // The same folder, given as is and through `..`, and a new folder inside it.
     let data = cmd.data();
     let alias = data.join("..").join("data");
-    for out in [&data, &alias] {
+    let inside = data.join("fit-output");
+    for out in [&data, &alias, &inside] {
         let run = cmd.run_raw([data.as_os_str(), "--out".as_ref(), out.as_os_str()]);
         assert_eq!(
             run.status.code(),
