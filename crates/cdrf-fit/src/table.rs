@@ -110,7 +110,7 @@ const MIN_NODE_SAMPLES: f32 = 50.0;
 /// Fills and smooths one sphere's curve along θ for the table.
 ///
 /// Each node is replaced by a weighted straight-line fit of **log f** over the smallest window
-/// of neighbours whose samples together pin f down to [`TARGET_RELATIVE_ERROR`] (a node's
+/// of neighbours whose samples together pin f down to 1 % (a node's
 /// precision is samples / relative noise²). On the lit side one node already does, so nothing
 /// changes there; on the noisy shadow side the window widens. Fitting lines in log f follows
 /// the shadow side's exponential fall-off without flattening it. Nodes without data (θ near
