@@ -6,7 +6,10 @@
 //! We fit, jointly over all spheres k:
 //! - `f_k(θ)`: one curve per sphere, piecewise linear on the table's θ nodes (1° by default);
 //! - `g(φ)`: one view correction **shared by all radii**, piecewise linear on φ nodes over
-//!   [0, 90°], normalised to `g(0) = 1` — the poster's form;
+//!   [0, 90°], normalised to `g(0) = 1` — the poster's form. On the bundled wax spheres a g
+//!   fitted to each sphere alone fits no better for r ≥ 25 mm; only the smallest (15 mm) would
+//!   gain about half a percent of residual. One shared g also keeps the table interpolable
+//!   across radii;
 //! - optionally `c(θ, φ)`: a smooth multiplicative correction on a coarse bilinear grid (10°),
 //!   shared by all radii and pulled toward 1 where the data says nothing
 //!   ([`ViewModel::ThetaPhi`]). Physically the exitant radiance of a diffusing medium is
