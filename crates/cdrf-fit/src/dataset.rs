@@ -136,7 +136,7 @@ pub enum DatasetError {
     /// The folder has no manifest.
     #[error(
         "{}: not found ({}); every data set folder needs a {MANIFEST_FILE_NAME} listing its \
-         images, camera and light; see \"Data set manifest\" in the cdrf-fit README, or \
+         images, camera and light; see the `cdrf-fit` section of README.md, or \
          data/wax-spheres/{MANIFEST_FILE_NAME} for an example",
         manifest.display(),
         match (images_found, example_image) {

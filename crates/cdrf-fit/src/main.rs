@@ -34,11 +34,11 @@ struct Args {
     /// θ-dependent correction (lower residual on translucent materials).
     #[arg(long, value_enum, default_value_t = ViewModelArg::ThetaPhi)]
     view_model: ViewModelArg,
-    /// Columns of the table over θ ∈ [0°, 180°] (181 = 1° apart).
-    #[arg(long, default_value_t = 181)]
+    /// Columns of the table over θ ∈ [0°, 180°] (361 = 0.5° apart).
+    #[arg(long, default_value_t = FitOptions::default().curves.theta_count)]
     theta_count: usize,
     /// Rows of the table over the measured curvature range.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = FitOptions::default().curvature_count)]
     curvature_count: usize,
     /// Print nothing but errors (and the --json summary).
     #[arg(long, short)]

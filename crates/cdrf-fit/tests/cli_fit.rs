@@ -585,7 +585,7 @@ fn three_spheres_give_every_output() {
         "curvature of the last row",
     );
     assert_eq!(axis.count, 64, "default --curvature-count");
-    assert_eq!(lut.theta_count(), 181, "default --theta-count");
+    assert_eq!(lut.theta_count(), 361, "default --theta-count");
 
     let gaussian: toml::Table =
         toml::from_str(&std::fs::read_to_string(cmd.out().join("gaussian.toml")).unwrap())
