@@ -18,7 +18,7 @@ use cdrf_core::lut::theta_rad_at;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use crate::curves::{CORRECTION_PHI_COUNT, ViewModel};
+use crate::curves::{CORRECTION_PHI_COUNT, SphereSamples, ViewModel};
 use crate::evaluate::SphereError;
 use crate::fit::{Fit, ModelErrors, SphereReport, Timings};
 use crate::plot::{
@@ -173,27 +173,19 @@ impl Report {
             .iter()
             .zip(&fit.errors)
             .enumerate()
-            .map(|(k, (sphere, errors))| {
-                let mut sums = vec![(Vec3::ZERO, 0_u32); 181];
-                for s in &fit.samples[k].samples {
-                    let bin = (s.theta_rad.to_degrees().round() as usize).min(180);
-                    sums[bin].0 += s.radiance;
-                    sums[bin].1 += 1;
-                }
-                ReportSphere {
-                    sphere: sphere.clone(),
-                    errors: errors.clone(),
-                    theta_deg: theta_deg.clone(),
-                    raw_curve: sums
-                        .iter()
-                        .map(|(sum, n)| (*n > 0).then(|| (*sum / *n as f32).to_array()))
-                        .collect(),
-                    corrected_curve: smooth_curve(&fit.curves.chosen, k)
-                        .iter()
-                        .map(|v| v.to_array())
-                        .collect(),
-                    samples_per_node: fit.curves.chosen.node_samples[k].clone(),
-                }
+            .map(|(k, (sphere, errors))| ReportSphere {
+                sphere: sphere.clone(),
+                errors: errors.clone(),
+                theta_deg: theta_deg.clone(),
+                raw_curve: raw_curve(&fit.samples[k])
+                    .iter()
+                    .map(|v| v.map(|v| v.to_array()))
+                    .collect(),
+                corrected_curve: smooth_curve(&fit.curves.chosen, k)
+                    .iter()
+                    .map(|v| v.to_array())
+                    .collect(),
+                samples_per_node: fit.curves.chosen.node_samples[k].clone(),
             })
             .collect();
         let g_phi = fit
@@ -248,6 +240,20 @@ impl Report {
             timings: fit.timings,
         }
     }
+}
+
+/// Mean π·L/E of a sphere's samples in 1° bins of θ (0°…180°), all φ mixed: the raw curve of
+/// the poster's Fig. 2. `None` for empty bins.
+fn raw_curve(sphere: &SphereSamples) -> Vec<Option<Vec3>> {
+    let mut sums = vec![(Vec3::ZERO, 0_u32); 181];
+    for s in &sphere.samples {
+        let bin = (s.theta_rad.to_degrees().round() as usize).min(180);
+        sums[bin].0 += s.radiance;
+        sums[bin].1 += 1;
+    }
+    sums.iter()
+        .map(|(sum, n)| (*n > 0).then(|| *sum / *n as f32))
+        .collect()
 }
 
 fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
@@ -400,17 +406,10 @@ fn radiance_plot(fit: &Fit) -> String {
     .with_size_px(900, 560);
     for (k, sphere) in fit.spheres.iter().enumerate() {
         let color = radius_color(fit, k);
-        let mut sums = vec![(0.0_f32, 0_u32); 181];
-        for s in &fit.samples[k].samples {
-            let bin = (s.theta_rad.to_degrees().round() as usize).min(180);
-            sums[bin].0 += s.radiance.y;
-            sums[bin].1 += 1;
-        }
-        let raw = sums
+        let raw = raw_curve(&fit.samples[k])
             .iter()
             .enumerate()
-            .filter(|(_, (_, n))| *n > 0)
-            .map(|(d, (sum, n))| (d as f32, sum / *n as f32))
+            .filter_map(|(degrees, v)| v.map(|v| (degrees as f32, v.y)))
             .collect();
         let corrected = smooth_curve(&fit.curves.chosen, k)
             .iter()
