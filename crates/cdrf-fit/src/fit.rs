@@ -11,7 +11,7 @@ use crate::curves::{CurveFits, CurveSettings, SphereSamples, fit_curves};
 use crate::dataset::{Dataset, SphereEntry};
 use crate::evaluate::{SphereError, sphere_error};
 use crate::gaussian_fit::{GaussianFit, fit_gaussian};
-use crate::image_io::{ImageError, load_linear_image};
+use crate::image_io::{ImageError, LinearImage, load_linear_image};
 use crate::sphere::{
     Circle, Detection, DetectionError, DroppedPixels, SphereView, detect_sphere, sample_sphere,
 };
@@ -123,6 +123,8 @@ pub struct SphereReport {
     pub outliers: usize,
     /// Seconds spent decoding the image.
     pub decode_s: f64,
+    /// Seconds spent detecting and sampling the sphere.
+    pub sampling_s: f64,
 }
 
 /// A detected circle for the report.
@@ -154,9 +156,9 @@ pub struct ModelErrors {
 /// Wall time per stage, seconds.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct Timings {
-    /// Decoding images.
+    /// Decoding images (summed over images; overlapped with sampling).
     pub decode_s: f64,
-    /// Detecting spheres and sampling pixels.
+    /// Detecting spheres and sampling pixels (summed over images; overlapped with decoding).
     pub sampling_s: f64,
     /// Fitting curves and view correction.
     pub curves_s: f64,
@@ -203,18 +205,23 @@ pub enum Progress {
     Fitting,
 }
 
-/// Reads, detects and samples one sphere, keeping nothing of the image but its samples.
+/// A decoded image and how long decoding took.
+type Decoded = (Result<LinearImage, ImageError>, f64);
+
+fn decode(entry: &SphereEntry) -> Decoded {
+    let started = Instant::now();
+    let image = load_linear_image(&entry.image, entry.color_space, entry.exposure);
+    (image, started.elapsed().as_secs_f64())
+}
+
+/// Detects and samples one decoded sphere, keeping nothing of the image but its samples.
 fn sample_entry(
     dataset: &Dataset,
     entry: &SphereEntry,
     options: &FitOptions,
-    timings: &mut Timings,
+    (image, decode_s): Decoded,
 ) -> Result<(SphereSamples, SphereReport), FitError> {
-    let started = Instant::now();
-    let image = load_linear_image(&entry.image, entry.color_space, entry.exposure)?;
-    let decode_s = started.elapsed().as_secs_f64();
-    timings.decode_s += decode_s;
-
+    let image = image?;
     let started = Instant::now();
     let (width, height) = (image.width as usize, image.height as usize);
     let detection = detect_sphere(width, height, &image.pixels);
@@ -258,7 +265,7 @@ fn sample_entry(
             dropped,
         });
     }
-    timings.sampling_s += started.elapsed().as_secs_f64();
+    let sampling_s = started.elapsed().as_secs_f64();
     let detected = detection.ok().map(|d: Detection| DetectedCircle {
         center_px: d.circle.center_px.to_array(),
         radius_px: d.circle.radius_px,
@@ -277,6 +284,7 @@ fn sample_entry(
         dropped,
         outliers: 0,
         decode_s,
+        sampling_s,
     };
     Ok((
         SphereSamples {
@@ -303,13 +311,24 @@ pub fn fit_dataset(
     let mut timings = Timings::default();
     let mut samples = Vec::with_capacity(dataset.spheres.len());
     let mut spheres = Vec::with_capacity(dataset.spheres.len());
-    for (index, entry) in dataset.spheres.iter().enumerate() {
-        let (sphere_samples, report) = sample_entry(dataset, entry, options, &mut timings)?;
+    // Decode the next image while sampling this one: two images in memory at most.
+    let entries = &dataset.spheres;
+    let mut next = entries.first().map(decode);
+    for (index, entry) in entries.iter().enumerate() {
+        let Some(decoded) = next.take() else { break };
+        let (sampled, following) = rayon::join(
+            || sample_entry(dataset, entry, options, decoded),
+            || entries.get(index + 1).map(decode),
+        );
+        next = following;
+        let (sphere_samples, report) = sampled?;
+        timings.decode_s += report.decode_s;
+        timings.sampling_s += report.sampling_s;
         samples.push(sphere_samples);
         spheres.push(report);
         progress(Progress::SphereSampled {
             index,
-            count: dataset.spheres.len(),
+            count: entries.len(),
         });
     }
     progress(Progress::Fitting);
