@@ -4,7 +4,7 @@
 //! On a sphere lit at 90° to the view, θ (normal–light) and φ (normal–view) are correlated, so
 //! a curve of radiance against θ alone mixes in the view dependence (the poster's Fig. 2, raw).
 //! We fit, jointly over all spheres k:
-//! - `f_k(θ)`: one curve per sphere, piecewise linear on the table's θ nodes (1° by default);
+//! - `f_k(θ)`: one curve per sphere, piecewise linear on the table's θ nodes (0.5° by default);
 //! - `g(φ)`: one view correction **shared by all radii**, piecewise linear on φ nodes over
 //!   [0, 90°], normalised to `g(0) = 1` — the poster's form. On the bundled wax spheres a g
 //!   fitted to each sphere alone fits no better for r ≥ 25 mm; only the smallest (15 mm) would

@@ -22,7 +22,7 @@ pub const BLOCK_PX: u32 = 8;
 pub struct RegionError {
     /// Blocks in the region.
     pub blocks: usize,
-    /// Mean of |model − data| / data over blocks and channels.
+    /// Mean of |model − data| / data over blocks and channels (where data > 0).
     pub mean_relative_error: f32,
     /// √(Σ (model − data)² / Σ data²) over blocks and channels.
     pub relative_rms: f32,
@@ -46,6 +46,7 @@ pub struct SphereError {
 #[derive(Default)]
 struct Accumulator {
     blocks: usize,
+    relative_terms: usize,
     relative_sum: f64,
     squared_error: f64,
     squared_data: f64,
@@ -58,6 +59,7 @@ impl Accumulator {
             let (m, d) = (model[c] as f64, data[c] as f64);
             if d > 0.0 {
                 self.relative_sum += (m - d).abs() / d;
+                self.relative_terms += 1;
             }
             self.squared_error += (m - d) * (m - d);
             self.squared_data += d * d;
@@ -67,8 +69,8 @@ impl Accumulator {
     fn result(&self) -> RegionError {
         RegionError {
             blocks: self.blocks,
-            mean_relative_error: if self.blocks > 0 {
-                (self.relative_sum / (3 * self.blocks) as f64) as f32
+            mean_relative_error: if self.relative_terms > 0 {
+                (self.relative_sum / self.relative_terms as f64) as f32
             } else {
                 0.0
             },

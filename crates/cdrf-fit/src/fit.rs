@@ -233,7 +233,7 @@ fn sample_entry(
             };
             let off = (manifest.center_px - found.circle.center_px).length()
                 + (manifest.radius_px - found.circle.radius_px).abs();
-            if off > options.manifest_tolerance_px {
+            if off.is_nan() || off > options.manifest_tolerance_px {
                 return Err(FitError::ManifestMismatch {
                     image: entry.image_name.clone(),
                     manifest,
@@ -255,7 +255,13 @@ fn sample_entry(
             });
         }
     };
-    let view = SphereView::new(circle, dataset.camera.projection, width, height);
+    // Silhouette points only when the circle used is the detected one.
+    let silhouette = match (&detection, entry.center_px, entry.radius_px) {
+        (Ok(found), None, None) => found.edge_points.as_slice(),
+        _ => &[],
+    };
+    let view =
+        SphereView::with_silhouette(circle, dataset.camera.projection, width, height, silhouette);
     let (samples, dropped) = sample_sphere(&view, &image, &dataset.light, options.edge_margin_px);
     if samples.len() < options.min_samples {
         return Err(FitError::TooFewSamples {
@@ -269,7 +275,7 @@ fn sample_entry(
     let detected = detection.ok().map(|d: Detection| DetectedCircle {
         center_px: d.circle.center_px.to_array(),
         radius_px: d.circle.radius_px,
-        edge_points: d.edge_points,
+        edge_points: d.edge_points.len(),
         rms_residual_px: d.rms_residual_px,
     });
     let report = SphereReport {
@@ -296,7 +302,7 @@ fn sample_entry(
     ))
 }
 
-/// Fits a data set: samples every sphere (one image in memory at a time), fits the curves and
+/// Fits a data set: samples every sphere (at most two decoded images in memory at a time), fits the curves and
 /// view correction, builds the table, fits the Gaussian CDRF, and measures both on every sphere.
 ///
 /// # Errors

@@ -1,8 +1,9 @@
 //! Fitting Kubo's Gaussian CDRF to the same samples, so both models can be compared fairly.
 //!
 //! Per channel, σ (mm) and a scale are chosen to minimise the plain squared error over every
-//! sample the measured table was fitted to, `Σᵢ (scale · K(θᵢ; σκᵢ) · gᵢ − Lᵢ)²`, with the same
-//! view correction g the measured model uses. Unweighted least squares on π·L/E is exactly the
+//! usable pixel of the photographs (the measured fit's outliers included: they are a handful),
+//! `Σᵢ (scale · K(θᵢ; σκᵢ) · gᵢ − Lᵢ)²`, with the view correction g·c of the measured model's
+//! curve fit (the table stores the same on a 5° grid). Unweighted least squares on π·L/E is exactly the
 //! image-space error the comparison reports, so this is the Gaussian's best shot at it.
 //!
 //! For a given σ the optimal scale is linear and closed-form, and the error reduces to
@@ -123,9 +124,9 @@ pub fn fit_gaussian(
                 .collect();
             let best = grid
                 .iter()
-                .copied()
-                .max_by(|&a, &b| explained(a).total_cmp(&explained(b)))
-                .unwrap_or(lo);
+                .map(|&x| (x, explained(x)))
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map_or(lo, |(x, _)| x);
             let step = (hi - lo) / steps as f64;
             let log_sigma =
                 golden_section_max(&explained, (best - step).max(lo), (best + step).min(hi));

@@ -11,7 +11,7 @@ use anyhow::{Context, bail};
 use cdrf_fit::curves::ViewModel;
 use cdrf_fit::dataset::Dataset;
 use cdrf_fit::fit::Progress;
-use cdrf_fit::outputs::{Report, check_output_dir, view_model_name, write_outputs};
+use cdrf_fit::outputs::{check_output_dir, view_model_name, write_outputs};
 use cdrf_fit::{FitOptions, fit_dataset};
 use clap::{Parser, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -117,7 +117,7 @@ fn run(args: Args) -> anyhow::Result<()> {
     .with_context(|| format!("fitting {}", dataset.manifest.display()))?;
     bar.finish_and_clear();
 
-    let written = write_outputs(&fit, &dataset.dir, &args.out)
+    let (written, report) = write_outputs(&fit, &dataset.dir, &args.out)
         .with_context(|| format!("writing outputs to {}", args.out.display()))?;
 
     if !args.quiet {
@@ -154,7 +154,6 @@ fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     if args.json {
-        let report = Report::new(&fit, &dataset.dir);
         let summary = serde_json::json!({
             "outputs": written,
             "spheres": fit.spheres.len(),

@@ -112,8 +112,11 @@ pub struct Report {
     pub table: TableSummary,
     /// Per sphere.
     pub spheres: Vec<ReportSphere>,
-    /// The poster's g(φ) (φ in degrees, RGB).
+    /// g(φ) of the chosen model (φ in degrees, RGB); with `theta-phi` it is fitted together with
+    /// c(θ, φ).
     pub g_phi: Vec<(f32, [f32; 3])>,
+    /// The poster's g(φ), fitted alone (no θ-dependent correction).
+    pub poster_g_phi: Vec<(f32, [f32; 3])>,
     /// The θ-dependent correction c(θ, φ) (θ rows 10° apart, φ columns 10° apart), when fitted.
     pub theta_phi_correction: Option<Vec<Vec<[f32; 3]>>>,
     /// Residuals of the two view models, summed over spheres.
@@ -188,19 +191,16 @@ impl Report {
                 samples_per_node: fit.curves.chosen.node_samples[k].clone(),
             })
             .collect();
-        let g_phi = fit
-            .curves
-            .chosen
-            .g_phi
-            .iter()
-            .enumerate()
-            .map(|(i, g)| {
-                (
-                    90.0 * i as f32 / (settings.phi_count - 1) as f32,
-                    g.to_array(),
-                )
-            })
-            .collect();
+        let phi_table = |values: &[Vec3]| -> Vec<(f32, [f32; 3])> {
+            let last = (values.len() - 1) as f32;
+            values
+                .iter()
+                .enumerate()
+                .map(|(i, g)| (90.0 * i as f32 / last, g.to_array()))
+                .collect()
+        };
+        let g_phi = phi_table(&fit.curves.chosen.g_phi);
+        let poster_g_phi = phi_table(&fit.curves.poster.g_phi);
         let theta_phi_correction = fit.curves.chosen.correction.as_ref().map(|grid| {
             grid.chunks(CORRECTION_PHI_COUNT)
                 .map(|row| row.iter().map(|v| v.to_array()).collect())
@@ -219,6 +219,7 @@ impl Report {
             },
             spheres,
             g_phi,
+            poster_g_phi,
             theta_phi_correction,
             view_model_residuals: ViewResiduals {
                 phi: fit
@@ -304,7 +305,8 @@ pub fn check_output_dir(dataset_dir: &Path, out_dir: &Path) -> Result<(), Output
     Ok(())
 }
 
-/// Writes every output of `fit` into `out_dir` (created if missing). Returns the files written.
+/// Writes every output of `fit` into `out_dir` (created if missing). Returns the files written
+/// and the report.
 ///
 /// # Errors
 /// When `out_dir` is the data set folder, or a file cannot be written.
@@ -312,7 +314,7 @@ pub fn write_outputs(
     fit: &Fit,
     dataset_dir: &Path,
     out_dir: &Path,
-) -> Result<Vec<PathBuf>, OutputError> {
+) -> Result<(Vec<PathBuf>, Report), OutputError> {
     check_output_dir(dataset_dir, out_dir)?;
     std::fs::create_dir_all(out_dir).map_err(|error| OutputError::Io {
         path: out_dir.to_path_buf(),
@@ -368,7 +370,7 @@ pub fn write_outputs(
             error: std::io::Error::other(e),
         })?;
     put(LUT_PICTURE, &png)?;
-    Ok(written)
+    Ok((written, report))
 }
 
 /// The manifest/CLI name of a view model.
@@ -431,7 +433,7 @@ fn view_plot(fit: &Fit) -> String {
     let chosen = &fit.curves.chosen;
     let phi_deg = |i: usize, n: usize| 90.0 * i as f32 / (n - 1) as f32;
     let mut plot = LinePlot::new(
-        "View correction: the poster's g(φ), and g(φ)·c(θ, φ) at a few θ",
+        "View correction: g(φ), and g(φ)·c(θ, φ) at a few θ",
         "φ, angle between normal and view (degrees)",
         "factor",
     )

@@ -9,19 +9,21 @@
 //!    (the false boundary is not a circle of the same centre, so it loses);
 //! 3. refine to sub-pixel: along the radius through every inlier, find where the bilinearly
 //!    interpolated luminance crosses half the level just inside the edge (with a box pixel
-//!    filter that is where the true edge is) and fit a circle to those points by geometric least
-//!    squares.
+//!    filter that is where the true edge is, if the radiance is flat near the edge) and fit a
+//!    circle to those points by geometric least squares. Where the radiance falls toward the
+//!    limb (a sphere lit from the camera's direction) the crossing lies up to ~1 px inside; a
+//!    side-lit sphere, the measurement setup, is found to within a few hundredths of a pixel.
 //!
 //! # Geometry
 //! Pixel `(i, j)` (row 0 at the top) has its centre at continuous coordinates
 //! `(i + 0.5, j + 0.5)`; camera space is +x right, +y up, +z toward the camera.
 //! - **Orthographic**: the normal at a pixel is `((u − cx)/R, −(v − cy)/R, √(1 − …))` and the
 //!   view vector is `(0, 0, 1)`.
-//! - **Perspective** (vertical field of view, principal point at the image centre): the sphere
-//!   lies along the axis of the cone of rays through its silhouette, at the distance that makes
-//!   its angular radius match; each pixel's ray is intersected with it, and the view vector is
-//!   the reversed ray. (A sphere off the optical axis images as a slight ellipse; the fitted
-//!   circle is its best circle, which is exact on the axis.)
+//! - **Perspective** (vertical field of view, principal point at the image centre): the rays
+//!   through the detected silhouette points form a circular cone around the sphere's direction
+//!   (exact also off the optical axis, where the silhouette is an ellipse); its axis and
+//!   half-angle place the sphere, each pixel's ray is intersected with it, and the view vector
+//!   is the reversed ray.
 
 use glam::{DVec2, Vec2, Vec3};
 
@@ -38,12 +40,12 @@ pub struct Circle {
 }
 
 /// A sphere's silhouette as detected in an image.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Detection {
     /// The fitted circle.
     pub circle: Circle,
-    /// Boundary points the circle was fitted to.
-    pub edge_points: usize,
+    /// The (sub-pixel) boundary points the circle was fitted to, pixels.
+    pub edge_points: Vec<Vec2>,
     /// RMS distance of those points from the circle, pixels.
     pub rms_residual_px: f32,
 }
@@ -81,7 +83,12 @@ pub fn detect_sphere(
     height: usize,
     pixels: &[Vec3],
 ) -> Result<Detection, DetectionError> {
-    let luma: Vec<f32> = pixels.iter().map(|&p| luminance(p)).collect();
+    // A non-finite pixel (a half-float overflow, say) must not poison the edge search.
+    let luma: Vec<f32> = pixels
+        .iter()
+        .map(|&p| luminance(p))
+        .map(|v| if v.is_finite() { v } else { 0.0 })
+        .collect();
     let mut finite: Vec<f32> = luma
         .iter()
         .copied()
@@ -196,7 +203,7 @@ pub fn detect_sphere(
             None
         })
         .collect();
-    let (circle, points) = if edges.len() >= min_inliers.min(inliers.len()) {
+    let (circle, points) = if edges.len() >= min_inliers {
         (fit_circle(&edges, circle), edges)
     } else {
         (circle, inliers)
@@ -207,12 +214,18 @@ pub fn detect_sphere(
         .sum::<f64>()
         / points.len() as f64)
         .sqrt();
+    if !(circle.0.is_finite() && circle.1.is_finite() && circle.1 > 0.0) {
+        return Err(DetectionError::NoCircle {
+            inliers: 0,
+            boundary: boundary.len(),
+        });
+    }
     Ok(Detection {
         circle: Circle {
             center_px: circle.0.as_vec2(),
             radius_px: circle.1 as f32,
         },
-        edge_points: points.len(),
+        edge_points: points.iter().map(|p| p.as_vec2()).collect(),
         rms_residual_px: rms as f32,
     })
 }
@@ -384,6 +397,19 @@ struct PerspectiveSphere {
 impl SphereView {
     /// The sphere with silhouette `circle` in a `width × height` image taken with `projection`.
     pub fn new(circle: Circle, projection: Projection, width: usize, height: usize) -> Self {
+        Self::with_silhouette(circle, projection, width, height, &[])
+    }
+
+    /// Like [`SphereView::new`], with the detected silhouette points (pixels): a perspective
+    /// camera then places the sphere from those points rather than from the circle, which is
+    /// exact also for a sphere off the optical axis (whose silhouette is an ellipse).
+    pub fn with_silhouette(
+        circle: Circle,
+        projection: Projection,
+        width: usize,
+        height: usize,
+        silhouette_px: &[Vec2],
+    ) -> Self {
         let perspective = match projection {
             Projection::Orthographic => None,
             Projection::Perspective { vertical_fov_deg } => {
@@ -392,22 +418,32 @@ impl SphereView {
                 let ray = |p: Vec2| {
                     Vec3::new(p.x - principal_px.x, principal_px.y - p.y, -focal_px).normalize()
                 };
-                // The silhouette rays form a circular cone around the sphere's direction: its
-                // axis is their normalised mean (the ray through the image circle's centre is
-                // off for a sphere off the optical axis, which images as an ellipse).
-                let samples = 64;
-                let boundary: Vec<Vec3> = (0..samples)
-                    .map(|k| {
-                        let t = k as f32 / samples as f32 * std::f32::consts::TAU;
-                        ray(circle.center_px + circle.radius_px * Vec2::new(t.cos(), t.sin()))
-                    })
-                    .collect();
-                let axis = boundary.iter().sum::<Vec3>().normalize();
-                let angle = boundary
-                    .iter()
-                    .map(|r| axis.dot(*r).clamp(-1.0, 1.0).acos())
-                    .sum::<f32>()
-                    / samples as f32;
+                // The silhouette rays r form a circular cone around the sphere's direction a,
+                // a·r = cos α. With w = a / cos α that is w·r = 1: a linear least-squares fit.
+                let mut rays: Vec<Vec3> = silhouette_px.iter().map(|&p| ray(p)).collect();
+                if rays.len() < 3 {
+                    rays = (0..64)
+                        .map(|k| {
+                            let t = k as f32 / 64.0 * std::f32::consts::TAU;
+                            ray(circle.center_px + circle.radius_px * Vec2::new(t.cos(), t.sin()))
+                        })
+                        .collect();
+                }
+                let (mut normal, mut rhs) = (glam::DMat3::ZERO, glam::DVec3::ZERO);
+                for r in &rays {
+                    let r = r.as_dvec3();
+                    normal += glam::DMat3::from_cols(r * r.x, r * r.y, r * r.z);
+                    rhs += r;
+                }
+                let w = if normal.determinant().abs() > 1e-12 {
+                    normal.inverse() * rhs
+                } else {
+                    // Degenerate (all rays alike): the mean direction, a tiny cone.
+                    rhs.normalize() / (1.0 - 1e-6)
+                };
+                let axis = w.normalize().as_vec3();
+                let cos_angle = (1.0 / w.length()).clamp(-1.0, 1.0) as f32;
+                let angle = cos_angle.acos().max(1e-6);
                 Some(PerspectiveSphere {
                     principal_px,
                     focal_px,
@@ -429,7 +465,7 @@ impl SphereView {
                 let offset = (pixel - self.circle.center_px) / self.circle.radius_px;
                 let (x, y) = (offset.x, -offset.y);
                 let rho2 = x * x + y * y;
-                if rho2 >= 1.0 {
+                if rho2.is_nan() || rho2 >= 1.0 {
                     return None;
                 }
                 Some(SurfacePoint {

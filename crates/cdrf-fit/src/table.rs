@@ -104,8 +104,6 @@ pub fn build_table(
 const TARGET_RELATIVE_ERROR: f32 = 0.01;
 /// Widest smoothing half-window, nodes.
 const MAX_HALF_WINDOW: usize = 12;
-/// Nodes with fewer effective samples than this count as empty.
-const MIN_NODE_SAMPLES: f32 = 50.0;
 
 /// Fills and smooths one sphere's curve along θ for the table.
 ///
@@ -114,17 +112,17 @@ const MIN_NODE_SAMPLES: f32 = 50.0;
 /// precision is samples / relative noise²). On the lit side one node already does, so nothing
 /// changes there; on the noisy shadow side the window widens. Fitting lines in log f follows
 /// the shadow side's exponential fall-off without flattening it. Nodes without data (θ near
-/// 0° and 180°, on the silhouette) take the value of the nearest measured node: flat ends, as
-/// f's even symmetry about 0 and π requires.
+/// 0° and 180°, on the silhouette) keep the curve fit's fill: flat toward the ends, as f's even
+/// symmetry about 0 and π requires (see [`crate::curves`]).
 pub fn smooth_curve(fit: &CurveFit, sphere: usize) -> Vec<Vec3> {
     let curve = &fit.curves[sphere];
     let counts = &fit.node_samples[sphere];
     let noise = &fit.node_noise[sphere];
     let n = curve.len();
-    let measured: Vec<bool> = (0..n).map(|a| counts[a] >= MIN_NODE_SAMPLES).collect();
+    let measured: Vec<bool> = (0..n).map(|a| counts[a] > 0.0).collect();
     let needed = 1.0 / (TARGET_RELATIVE_ERROR * TARGET_RELATIVE_ERROR);
     let peak = curve.iter().fold(Vec3::ZERO, |m, v| m.max(*v));
-    let mut out: Vec<Option<Vec3>> = vec![None; n];
+    let mut out = curve.clone();
     for a in (0..n).filter(|&a| measured[a]) {
         let mut value = curve[a];
         for c in 0..3 {
@@ -171,29 +169,9 @@ pub fn smooth_curve(fit: &CurveFit, sphere: usize) -> Vec<Vec3> {
             };
             value[c] = intercept.exp() as f32;
         }
-        out[a] = Some(value);
+        out[a] = value;
     }
-    // Flat fill toward the ends and across gaps (nearest measured node).
-    let Some(first) = out.iter().position(Option::is_some) else {
-        return curve.clone();
-    };
-    let mut last = out[first].unwrap_or(curve[first]);
-    out.iter()
-        .map(|value| {
-            if let Some(v) = value {
-                last = *v;
-            }
-            last
-        })
-        .enumerate()
-        .map(|(a, v)| {
-            if a < first {
-                out[first].unwrap_or(v)
-            } else {
-                v
-            }
-        })
-        .collect()
+    out
 }
 
 /// The fit's view factor as the table's [`ViewCorrection`] grid.
