@@ -273,7 +273,7 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
         Vec3::ONE;
         CORRECTION_THETA_COUNT * CORRECTION_PHI_COUNT
     ]);
-    for round in 0..3 {
+    for round in 0..2 {
         fit_correction(&mut fit, &points);
         fit_f(&mut fit, &points);
         fit_g(&mut fit, &points);
