@@ -15,7 +15,7 @@ use crate::image_io::{ImageError, LinearImage, load_linear_image};
 use crate::sphere::{
     Circle, Detection, DetectionError, DroppedPixels, SphereView, detect_sphere, sample_sphere,
 };
-use crate::table::{TableError, build_table};
+use crate::table::{TableError, build_table, smooth_curve};
 
 /// Settings of a fit. `Default` is what `cdrf-fit` uses.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -181,6 +181,9 @@ pub struct Fit {
     pub gaussian: GaussianFit,
     /// The fitted curves (chosen model and the poster's).
     pub curves: CurveFits,
+    /// The chosen fit's curves as they entered the table (filled and smoothed along θ), per
+    /// sphere.
+    pub table_curves: Vec<Vec<Vec3>>,
     /// The samples, per sphere (input order).
     pub samples: Vec<SphereSamples>,
     /// What happened to each sphere.
@@ -367,7 +370,15 @@ pub fn fit_samples(
 
     let started = Instant::now();
     let curvatures: Vec<f32> = samples.iter().map(|s| s.curvature_per_mm).collect();
-    let lut = build_table(&curves.chosen, &curvatures, options.curvature_count)?;
+    let table_curves: Vec<Vec<Vec3>> = (0..samples.len())
+        .map(|k| smooth_curve(&curves.chosen, k))
+        .collect();
+    let lut = build_table(
+        &curves.chosen,
+        &table_curves,
+        &curvatures,
+        options.curvature_count,
+    )?;
     timings.table_s = started.elapsed().as_secs_f64();
 
     let started = Instant::now();
@@ -421,6 +432,7 @@ pub fn fit_samples(
         lut,
         gaussian,
         curves,
+        table_curves,
         samples,
         spheres,
         errors,

@@ -24,7 +24,6 @@ use crate::fit::{Fit, ModelErrors, SphereReport, Timings};
 use crate::plot::{
     ColorScale, Colormap, LinePlot, LineStyle, Series, heatmap_png, rgb_png_srgb, upscale_nearest,
 };
-use crate::table::smooth_curve;
 
 /// The measured LUT.
 pub const MEASURED_LUT: &str = "measured.exr";
@@ -184,10 +183,7 @@ impl Report {
                     .iter()
                     .map(|v| v.map(|v| v.to_array()))
                     .collect(),
-                corrected_curve: smooth_curve(&fit.curves.chosen, k)
-                    .iter()
-                    .map(|v| v.to_array())
-                    .collect(),
+                corrected_curve: fit.table_curves[k].iter().map(|v| v.to_array()).collect(),
                 samples_per_node: fit.curves.chosen.node_samples[k].clone(),
             })
             .collect();
@@ -413,7 +409,7 @@ fn radiance_plot(fit: &Fit) -> String {
             .enumerate()
             .filter_map(|(degrees, v)| v.map(|v| (degrees as f32, v.y)))
             .collect();
-        let corrected = smooth_curve(&fit.curves.chosen, k)
+        let corrected = fit.table_curves[k]
             .iter()
             .enumerate()
             .map(|(a, v)| (theta_rad_at(a, settings.theta_count).to_degrees(), v.y))

@@ -23,7 +23,7 @@ pub enum TableError {
 }
 
 /// Builds the measured table from the fitted curves of spheres with curvatures
-/// `curvature_per_mm` (same order as `fit.curves`).
+/// `curvature_per_mm`, as smoothed by [`smooth_curve`] (`smoothed`, same order as `fit.curves`).
 ///
 /// With two or more spheres each θ column is a non-uniform Catmull-Rom spline through the
 /// spheres' values at their curvatures, sampled at `curvature_count` rows uniformly spaced
@@ -35,6 +35,7 @@ pub enum TableError {
 /// When two spheres share a curvature or the values are not a valid table.
 pub fn build_table(
     fit: &CurveFit,
+    smoothed: &[Vec<Vec3>],
     curvature_per_mm: &[f32],
     curvature_count: usize,
 ) -> Result<CdrfLut, TableError> {
@@ -57,9 +58,6 @@ pub fn build_table(
         }
     };
 
-    let smoothed: Vec<Vec<Vec3>> = (0..fit.curves.len())
-        .map(|k| smooth_curve(fit, k))
-        .collect();
     let mut radiance = vec![Vec3::ZERO; axis.count * theta_count];
     let mut coverage = vec![TexelCoverage::default(); axis.count * theta_count];
     for column in 0..theta_count {
