@@ -2,6 +2,8 @@
 
 use std::path::PathBuf;
 
+pub mod golden;
+
 /// The repository's bundled data folder (`data/`), checked to exist: a missing fixture folder is
 /// a failure, never a silently skipped test.
 ///

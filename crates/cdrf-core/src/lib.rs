@@ -32,9 +32,15 @@ pub mod atomic;
 pub mod catmull_rom;
 pub mod curvature;
 pub mod gaussian;
+pub mod gaussian_file;
+pub mod image_file;
 pub mod lut;
 pub mod lut_file;
 pub mod mesh;
+pub mod scene;
+
+/// The math types of the public API (positions, normals, matrices).
+pub use glam;
 
 pub use curvature::{CurvatureError, CurvatureOptions, mean_curvature_per_mm};
 pub use lut::{Cdrf, CdrfLut, CurvatureAxis, Filter, ViewCorrection};

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use cdrf_core::lut::theta_rad_at;
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use crate::curves::{CORRECTION_PHI_COUNT, SphereSamples, ViewModel};
 use crate::evaluate::SphereError;
@@ -38,17 +38,9 @@ pub const VIEW_PLOT: &str = "view_correction.svg";
 /// The table as a picture.
 pub const LUT_PICTURE: &str = "lut.png";
 
-/// `gaussian.toml`: Kubo's Gaussian CDRF fitted to the same photographs.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct GaussianParameters {
-    /// Standard deviation of the scattering Gaussian per RGB channel, mm (angular width σ·κ).
-    pub sigma_mm: [f32; 3],
-    /// Overall factor per channel (the material's albedo under the LUT convention π·L/E).
-    pub scale: [f32; 3],
-    /// The view correction the fit used, as stored in the measured LUT (`measured.exr`).
-    pub view_correction: String,
-}
+/// `gaussian.toml`: Kubo's Gaussian CDRF fitted to the same photographs (the format lives in
+/// cdrf-core, which reads it for rendering).
+pub use cdrf_core::gaussian_file::GaussianParameters;
 
 /// Why writing outputs failed.
 #[derive(Debug, thiserror::Error)]
@@ -336,15 +328,12 @@ pub fn write_outputs(
     let gaussian = GaussianParameters {
         sigma_mm: fit.gaussian.model.sigma_mm(),
         scale: fit.gaussian.model.scale(),
-        view_correction: format!(
-            "{} (the g stored in {MEASURED_LUT})",
-            view_model_name(view_model)
-        ),
+        view_correction_from: Some(MEASURED_LUT.into()),
     };
     let toml = format!(
-        "# Kubo et al. 2010 Gaussian CDRF fitted by cdrf-fit to the same photographs as {MEASURED_LUT}.\n\
-         # Radiance: L = E/pi * scale * (cos+ convolved with a Gaussian of angular width sigma_mm * curvature) * g.\n{}",
-        toml::to_string(&gaussian).unwrap_or_default()
+        "# Fitted by cdrf-fit to the same photographs as {MEASURED_LUT} (view model: {}).\n{}",
+        view_model_name(view_model),
+        gaussian.to_toml_string()
     );
     put(GAUSSIAN, toml.as_bytes())?;
 

@@ -1,0 +1,859 @@
+//! The scene file: one mesh, an orthographic or perspective camera, directional lights and a
+//! shading model, in TOML. Headless rendering, the tests and the accuracy evaluation read it.
+//!
+//! ```toml
+//! [mesh]
+//! path = "bunny.obj"            # OBJ or glTF/GLB, relative to this file
+//! mm_per_unit = 10.0            # millimetres per mesh (= world) unit; default 1
+//! scale = 1.0                   # optional model transform: uniform scale (default 1)
+//! rotate_deg = [0.0, 0.0, 0.0]  # optional: about x, then y, then z, degrees
+//! translate = [0.0, 0.0, 0.0]   # optional: world units, applied last
+//!
+//! [camera]
+//! projection = "orthographic"   # or "perspective" (then vertical_fov_deg)
+//! eye = [0.0, 0.0, 250.0]
+//! target = [0.0, 0.0, 0.0]
+//! up = [0.0, 1.0, 0.0]
+//! ortho_half_height = 50.0      # world units, orthographic only
+//! # vertical_fov_deg = 30.0     # perspective only
+//! width = 512
+//! height = 512
+//! msaa_samples = 4              # optional: 1 or 4 (default 4); alpha = pixel coverage
+//!
+//! [[light]]                     # one or more
+//! to_light = [-1.0, 0.0, 0.0]   # world space, toward the light (normalised)
+//! irradiance = [1.0, 1.0, 1.0]  # linear, per RGB channel, on a surface facing the light
+//!
+//! [shading]
+//! model = "measured"            # measured | gaussian | lambert | curvature
+//! lut = "out/measured.exr"      # model = "measured": a LUT file (cdrf-fit's measured.exr)
+//! # gaussian = "out/gaussian.toml"        # model = "gaussian": cdrf-fit's fitted parameters
+//! # albedo = [0.8, 0.8, 0.8]              # model = "lambert" (default 1)
+//! # curvature_range_per_mm = [-0.1, 0.1]  # model = "curvature" (default ±max |κ| of the mesh)
+//! ```
+//!
+//! # Units
+//! World units are the mesh's units; one is `mm_per_unit` millimetres. The model transform's
+//! `scale` makes the object physically larger, so its curvature in mm⁻¹ is the mesh's divided
+//! by `scale`. Camera positions and `ortho_half_height` are in world units.
+//!
+//! # Camera
+//! The conventions of the bundled data (`data/README.md`): right-handed, the camera looks from
+//! `eye` to `target` with `up` projected to the image's +y; pixel (i, j), row 0 at the top, has
+//! its centre at `(i + 0.5 − W/2)·s` along the image's right and `(H/2 − j − 0.5)·s` along its
+//! up, `s = 2·ortho_half_height/H` (square pixels).
+
+use std::path::{Path, PathBuf};
+
+use glam::{Mat4, Vec3};
+use serde::Deserialize;
+use thiserror::Error;
+
+use crate::curvature::{CurvatureError, CurvatureOptions, mean_curvature_per_mm};
+use crate::gaussian::GaussianCdrf;
+use crate::gaussian_file::{GaussianFileError, read_gaussian};
+use crate::lut::{CdrfLut, ViewCorrection};
+use crate::lut_file::{LutFileError, read_lut};
+use crate::mesh::{LoadError, Mesh};
+
+/// A scene: what to render and how.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// The mesh and its placement.
+    pub mesh: MeshSpec,
+    /// The camera and image size.
+    pub camera: Camera,
+    /// Directional lights (at least one).
+    pub lights: Vec<DirectionalLight>,
+    /// The shading model.
+    pub shading: ShadingSpec,
+}
+
+/// The mesh of a scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshSpec {
+    /// The mesh file, resolved against the scene file's folder.
+    pub path: PathBuf,
+    /// Millimetres per mesh unit.
+    pub mm_per_unit: f32,
+    /// Model → world.
+    pub transform: ModelTransform,
+}
+
+/// Uniform scale, then rotations about x, y and z, then translation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModelTransform {
+    /// Uniform scale (> 0).
+    pub scale: f32,
+    /// Rotation angles about x, y and z in degrees, applied in that order.
+    pub rotate_deg: [f32; 3],
+    /// Translation in world units.
+    pub translate: [f32; 3],
+}
+
+impl Default for ModelTransform {
+    fn default() -> Self {
+        Self {
+            scale: 1.0,
+            rotate_deg: [0.0; 3],
+            translate: [0.0; 3],
+        }
+    }
+}
+
+impl ModelTransform {
+    /// `T · Rz · Ry · Rx · S`.
+    pub fn world_from_model(&self) -> Mat4 {
+        let [x, y, z] = self.rotate_deg.map(f32::to_radians);
+        Mat4::from_translation(Vec3::from_array(self.translate))
+            * Mat4::from_rotation_z(z)
+            * Mat4::from_rotation_y(y)
+            * Mat4::from_rotation_x(x)
+            * Mat4::from_scale(Vec3::splat(self.scale))
+    }
+}
+
+/// Camera projection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Parallel rays; the frame is `2·half_height` world units tall.
+    Orthographic {
+        /// Half the frame height, world units.
+        half_height: f32,
+    },
+    /// A pinhole camera.
+    Perspective {
+        /// Full vertical field of view, degrees.
+        vertical_fov_deg: f32,
+    },
+}
+
+/// The camera and image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Projection.
+    pub projection: Projection,
+    /// Camera position, world units.
+    pub eye: Vec3,
+    /// The point at the image centre.
+    pub target: Vec3,
+    /// Up direction (projected to the image's +y).
+    pub up: Vec3,
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// MSAA samples per pixel (1 or 4).
+    pub msaa_samples: u32,
+}
+
+impl Camera {
+    /// Width over height.
+    pub fn aspect(&self) -> f32 {
+        self.width as f32 / self.height as f32
+    }
+
+    /// World → view (right-handed, camera looking down −z).
+    pub fn view_from_world(&self) -> Mat4 {
+        glam::camera::rh::view::look_at_mat4(self.eye, self.target, self.up)
+    }
+
+    /// View → clip in wgpu's conventions (depth 0 at `near`, 1 at `far`; y up); `near` and
+    /// `far` are distances along the view direction in world units.
+    pub fn clip_from_view(&self, near: f32, far: f32) -> Mat4 {
+        match self.projection {
+            Projection::Orthographic { half_height } => {
+                let half_width = half_height * self.aspect();
+                glam::camera::rh::proj::directx::orthographic(
+                    -half_width,
+                    half_width,
+                    -half_height,
+                    half_height,
+                    near,
+                    far,
+                )
+            }
+            Projection::Perspective { vertical_fov_deg } => {
+                glam::camera::rh::proj::directx::perspective(
+                    vertical_fov_deg.to_radians(),
+                    self.aspect(),
+                    near,
+                    far,
+                )
+            }
+        }
+    }
+}
+
+/// A directional light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectionalLight {
+    /// Unit vector toward the light, world space.
+    pub to_light: Vec3,
+    /// Irradiance on a surface facing the light, linear, per RGB channel.
+    pub irradiance: [f32; 3],
+}
+
+/// The shading model and its data files.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ShadingSpec {
+    /// A measured LUT.
+    Measured {
+        /// The LUT file (resolved).
+        lut: PathBuf,
+    },
+    /// Kubo's Gaussian CDRF.
+    Gaussian {
+        /// The `gaussian.toml` (resolved).
+        parameters: PathBuf,
+    },
+    /// Lambert.
+    Lambert {
+        /// Albedo per channel.
+        albedo: [f32; 3],
+    },
+    /// The curvature view.
+    Curvature {
+        /// κ at the colour map's ends, mm⁻¹ (`None`: ±max |κ| of the drawn mesh).
+        range_per_mm: Option<[f32; 2]>,
+    },
+}
+
+/// A shading model with its data loaded.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Material {
+    /// A measured LUT with its view correction.
+    Measured(CdrfLut),
+    /// Kubo's Gaussian CDRF and the view correction it shares.
+    Gaussian {
+        /// The model.
+        model: GaussianCdrf,
+        /// g(θ, φ).
+        view_correction: ViewCorrection,
+    },
+    /// Lambert.
+    Lambert {
+        /// Albedo per channel.
+        albedo: [f32; 3],
+    },
+    /// The curvature view.
+    Curvature {
+        /// κ at the colour map's ends, mm⁻¹.
+        range_per_mm: [f32; 2],
+    },
+}
+
+/// A scene's files, loaded.
+#[derive(Clone, Debug)]
+pub struct SceneAssets {
+    /// The mesh in its own units.
+    pub mesh: Mesh,
+    /// Per-vertex mean curvature, mm⁻¹, of the mesh at `mm_per_unit` (before the model
+    /// transform's scale).
+    pub curvature_per_mm: Vec<f32>,
+    /// The shading model with its data.
+    pub material: Material,
+}
+
+/// Why a scene could not be loaded.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum SceneError {
+    /// The scene file could not be read.
+    #[error("{}: {error}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        error: std::io::Error,
+    },
+    /// Malformed TOML, an unknown key or a missing one.
+    #[error("{}: {message}", path.display())]
+    Syntax {
+        /// The scene file.
+        path: PathBuf,
+        /// The parser's message.
+        message: String,
+    },
+    /// A value is out of range or a key does not fit the chosen model.
+    #[error("{}: {key}: {problem}", path.display())]
+    Invalid {
+        /// The scene file.
+        path: PathBuf,
+        /// The key, e.g. `[camera] width`.
+        key: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The mesh could not be loaded.
+    #[error("[mesh] path: {error}")]
+    Mesh {
+        /// The mesh loader's error (names the mesh file).
+        error: LoadError,
+    },
+    /// Curvature could not be estimated.
+    #[error("{}: curvature: {error}", mesh.display())]
+    Curvature {
+        /// The mesh file.
+        mesh: PathBuf,
+        /// Why.
+        error: CurvatureError,
+    },
+    /// The LUT could not be read.
+    #[error("[shading] lut: {error}")]
+    Lut {
+        /// The LUT reader's error (names the LUT file).
+        error: LutFileError,
+    },
+    /// The Gaussian parameters could not be read.
+    #[error("[shading] gaussian: {error}")]
+    Gaussian {
+        /// The parameter file's error (names that file).
+        error: GaussianFileError,
+    },
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    mesh: RawMesh,
+    camera: RawCamera,
+    #[serde(default)]
+    light: Vec<RawLight>,
+    shading: RawShading,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMesh {
+    path: PathBuf,
+    #[serde(default = "one")]
+    mm_per_unit: f32,
+    #[serde(default = "one")]
+    scale: f32,
+    #[serde(default)]
+    rotate_deg: [f32; 3],
+    #[serde(default)]
+    translate: [f32; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCamera {
+    projection: String,
+    eye: [f32; 3],
+    target: [f32; 3],
+    up: [f32; 3],
+    ortho_half_height: Option<f32>,
+    vertical_fov_deg: Option<f32>,
+    width: u32,
+    height: u32,
+    #[serde(default = "four")]
+    msaa_samples: u32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLight {
+    to_light: [f32; 3],
+    irradiance: [f32; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawShading {
+    model: String,
+    lut: Option<PathBuf>,
+    gaussian: Option<PathBuf>,
+    albedo: Option<[f32; 3]>,
+    curvature_range_per_mm: Option<[f32; 2]>,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+fn four() -> u32 {
+    4
+}
+
+/// Largest image side accepted.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+
+impl Scene {
+    /// Reads and validates a scene file; relative paths resolve against its folder.
+    ///
+    /// # Errors
+    /// [`SceneError`] naming the file and the key.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|error| SceneError::Io {
+            path: path.to_owned(),
+            error,
+        })?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Self::from_toml_str(&text, base, path)
+    }
+
+    /// Parses scene TOML; relative paths resolve against `base_dir`; errors name `file`.
+    ///
+    /// # Errors
+    /// [`SceneError`].
+    pub fn from_toml_str(text: &str, base_dir: &Path, file: &Path) -> Result<Self, SceneError> {
+        let raw: RawScene = toml::from_str(text).map_err(|error| SceneError::Syntax {
+            path: file.to_owned(),
+            message: error.to_string().trim_end().to_owned(),
+        })?;
+        let invalid = |key: &'static str, problem: String| SceneError::Invalid {
+            path: file.to_owned(),
+            key,
+            problem,
+        };
+        let finite3 = |key: &'static str, v: [f32; 3]| {
+            if v.iter().all(|x| x.is_finite()) {
+                Ok(Vec3::from_array(v))
+            } else {
+                Err(invalid(key, format!("{v:?}: must be finite")))
+            }
+        };
+
+        let m = raw.mesh;
+        if !(m.mm_per_unit.is_finite() && m.mm_per_unit > 0.0) {
+            return Err(invalid(
+                "[mesh] mm_per_unit",
+                format!("{}: must be > 0", m.mm_per_unit),
+            ));
+        }
+        if !(m.scale.is_finite() && m.scale > 0.0) {
+            return Err(invalid("[mesh] scale", format!("{}: must be > 0", m.scale)));
+        }
+        finite3("[mesh] rotate_deg", m.rotate_deg)?;
+        finite3("[mesh] translate", m.translate)?;
+        let mesh = MeshSpec {
+            path: base_dir.join(&m.path),
+            mm_per_unit: m.mm_per_unit,
+            transform: ModelTransform {
+                scale: m.scale,
+                rotate_deg: m.rotate_deg,
+                translate: m.translate,
+            },
+        };
+
+        let c = raw.camera;
+        let projection = match c.projection.as_str() {
+            "orthographic" => {
+                if c.vertical_fov_deg.is_some() {
+                    return Err(invalid(
+                        "[camera] vertical_fov_deg",
+                        "only for projection = \"perspective\"".into(),
+                    ));
+                }
+                let half_height = c.ortho_half_height.ok_or_else(|| {
+                    invalid(
+                        "[camera] ortho_half_height",
+                        "required for an orthographic camera".into(),
+                    )
+                })?;
+                if !(half_height.is_finite() && half_height > 0.0) {
+                    return Err(invalid(
+                        "[camera] ortho_half_height",
+                        format!("{half_height}: must be > 0"),
+                    ));
+                }
+                Projection::Orthographic { half_height }
+            }
+            "perspective" => {
+                if c.ortho_half_height.is_some() {
+                    return Err(invalid(
+                        "[camera] ortho_half_height",
+                        "only for projection = \"orthographic\"".into(),
+                    ));
+                }
+                let fov = c.vertical_fov_deg.ok_or_else(|| {
+                    invalid(
+                        "[camera] vertical_fov_deg",
+                        "required for a perspective camera".into(),
+                    )
+                })?;
+                if !(fov > 0.0 && fov < 180.0) {
+                    return Err(invalid(
+                        "[camera] vertical_fov_deg",
+                        format!("{fov}: must be in (0, 180)"),
+                    ));
+                }
+                Projection::Perspective {
+                    vertical_fov_deg: fov,
+                }
+            }
+            other => {
+                return Err(invalid(
+                    "[camera] projection",
+                    format!("\"{other}\": must be \"orthographic\" or \"perspective\""),
+                ));
+            }
+        };
+        let eye = finite3("[camera] eye", c.eye)?;
+        let target = finite3("[camera] target", c.target)?;
+        let up = finite3("[camera] up", c.up)?;
+        let forward = target - eye;
+        if forward.length() <= 1e-6 * eye.length().max(1.0) {
+            return Err(invalid(
+                "[camera] target",
+                "must differ from eye".to_owned(),
+            ));
+        }
+        if up.length() == 0.0 || forward.normalize().cross(up.normalize()).length() < 1e-4 {
+            return Err(invalid(
+                "[camera] up",
+                format!(
+                    "{:?}: must not be zero or parallel to the view direction",
+                    c.up
+                ),
+            ));
+        }
+        for (key, side) in [("[camera] width", c.width), ("[camera] height", c.height)] {
+            if !(1..=MAX_IMAGE_SIDE).contains(&side) {
+                return Err(invalid(
+                    key,
+                    format!("{side}: must be 1..={MAX_IMAGE_SIDE}"),
+                ));
+            }
+        }
+        if !matches!(c.msaa_samples, 1 | 4) {
+            return Err(invalid(
+                "[camera] msaa_samples",
+                format!("{}: must be 1 or 4", c.msaa_samples),
+            ));
+        }
+        let camera = Camera {
+            projection,
+            eye,
+            target,
+            up,
+            width: c.width,
+            height: c.height,
+            msaa_samples: c.msaa_samples,
+        };
+
+        if raw.light.is_empty() {
+            return Err(invalid(
+                "[[light]]",
+                "at least one light is required".into(),
+            ));
+        }
+        let mut lights = Vec::with_capacity(raw.light.len());
+        for light in raw.light {
+            let to_light = finite3("[[light]] to_light", light.to_light)?;
+            if to_light.length() < 1e-12 {
+                return Err(invalid("[[light]] to_light", "must not be zero".into()));
+            }
+            if light.irradiance.iter().any(|e| !e.is_finite() || *e < 0.0) {
+                return Err(invalid(
+                    "[[light]] irradiance",
+                    format!("{:?}: must be finite and ≥ 0", light.irradiance),
+                ));
+            }
+            lights.push(DirectionalLight {
+                to_light: to_light.normalize(),
+                irradiance: light.irradiance,
+            });
+        }
+
+        let s = raw.shading;
+        let unexpected = |key: &'static str, present: bool, model: &str| {
+            if present {
+                Err(invalid(key, format!("not used by model = \"{model}\"")))
+            } else {
+                Ok(())
+            }
+        };
+        let shading = match s.model.as_str() {
+            "measured" => {
+                unexpected("[shading] gaussian", s.gaussian.is_some(), "measured")?;
+                unexpected("[shading] albedo", s.albedo.is_some(), "measured")?;
+                unexpected(
+                    "[shading] curvature_range_per_mm",
+                    s.curvature_range_per_mm.is_some(),
+                    "measured",
+                )?;
+                let lut = s.lut.ok_or_else(|| {
+                    invalid("[shading] lut", "required for model = \"measured\"".into())
+                })?;
+                ShadingSpec::Measured {
+                    lut: base_dir.join(lut),
+                }
+            }
+            "gaussian" => {
+                unexpected("[shading] lut", s.lut.is_some(), "gaussian")?;
+                unexpected("[shading] albedo", s.albedo.is_some(), "gaussian")?;
+                unexpected(
+                    "[shading] curvature_range_per_mm",
+                    s.curvature_range_per_mm.is_some(),
+                    "gaussian",
+                )?;
+                let parameters = s.gaussian.ok_or_else(|| {
+                    invalid(
+                        "[shading] gaussian",
+                        "required for model = \"gaussian\"".into(),
+                    )
+                })?;
+                ShadingSpec::Gaussian {
+                    parameters: base_dir.join(parameters),
+                }
+            }
+            "lambert" => {
+                unexpected("[shading] lut", s.lut.is_some(), "lambert")?;
+                unexpected("[shading] gaussian", s.gaussian.is_some(), "lambert")?;
+                unexpected(
+                    "[shading] curvature_range_per_mm",
+                    s.curvature_range_per_mm.is_some(),
+                    "lambert",
+                )?;
+                let albedo = s.albedo.unwrap_or([1.0; 3]);
+                if albedo.iter().any(|a| !a.is_finite() || *a < 0.0) {
+                    return Err(invalid(
+                        "[shading] albedo",
+                        format!("{albedo:?}: must be finite and ≥ 0"),
+                    ));
+                }
+                ShadingSpec::Lambert { albedo }
+            }
+            "curvature" => {
+                unexpected("[shading] lut", s.lut.is_some(), "curvature")?;
+                unexpected("[shading] gaussian", s.gaussian.is_some(), "curvature")?;
+                unexpected("[shading] albedo", s.albedo.is_some(), "curvature")?;
+                if let Some([low, high]) = s.curvature_range_per_mm
+                    && !(low.is_finite() && high.is_finite() && low < high)
+                {
+                    return Err(invalid(
+                        "[shading] curvature_range_per_mm",
+                        format!("[{low}, {high}]: must be finite with low < high"),
+                    ));
+                }
+                ShadingSpec::Curvature {
+                    range_per_mm: s.curvature_range_per_mm,
+                }
+            }
+            other => {
+                return Err(invalid(
+                    "[shading] model",
+                    format!("\"{other}\": must be measured, gaussian, lambert or curvature"),
+                ));
+            }
+        };
+        Ok(Self {
+            mesh,
+            camera,
+            lights,
+            shading,
+        })
+    }
+
+    /// Loads the mesh (computing its curvature) and the shading model's files.
+    ///
+    /// # Errors
+    /// [`SceneError`] naming the key and the failing file.
+    pub fn load_assets(&self) -> Result<SceneAssets, SceneError> {
+        let mesh = Mesh::load(&self.mesh.path)
+            .map_err(|error| SceneError::Mesh { error })?
+            .mesh;
+        let curvature_per_mm =
+            mean_curvature_per_mm(&mesh, &CurvatureOptions::new(self.mesh.mm_per_unit)).map_err(
+                |error| SceneError::Curvature {
+                    mesh: self.mesh.path.clone(),
+                    error,
+                },
+            )?;
+        let material = match &self.shading {
+            ShadingSpec::Measured { lut } => {
+                Material::Measured(read_lut(lut).map_err(|error| SceneError::Lut { error })?)
+            }
+            ShadingSpec::Gaussian { parameters } => {
+                let gaussian_error = |error| SceneError::Gaussian { error };
+                let (model, view_correction) = read_gaussian(parameters)
+                    .and_then(|p| p.load_model(parameters))
+                    .map_err(gaussian_error)?;
+                Material::Gaussian {
+                    model,
+                    view_correction,
+                }
+            }
+            ShadingSpec::Lambert { albedo } => Material::Lambert { albedo: *albedo },
+            ShadingSpec::Curvature { range_per_mm } => {
+                let range_per_mm = range_per_mm.unwrap_or_else(|| {
+                    let largest = curvature_per_mm.iter().fold(0.0f32, |m, k| m.max(k.abs()))
+                        / self.mesh.transform.scale;
+                    let largest = if largest > 0.0 { largest } else { 1.0 };
+                    [-largest, largest]
+                });
+                Material::Curvature { range_per_mm }
+            }
+        };
+        Ok(SceneAssets {
+            mesh,
+            curvature_per_mm,
+            material,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec4;
+
+    const EXAMPLE: &str = r#"
+[mesh]
+path = "bunny.obj"
+mm_per_unit = 10.0
+scale = 2.0
+rotate_deg = [90.0, 0.0, 0.0]
+translate = [1.0, 2.0, 3.0]
+[camera]
+projection = "orthographic"
+eye = [0.0, 0.0, 250.0]
+target = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+ortho_half_height = 50.0
+width = 512
+height = 512
+[[light]]
+to_light = [-2.0, 0.0, 0.0]
+irradiance = [1.0, 1.0, 1.0]
+[[light]]
+to_light = [0.0, 1.0, 0.0]
+irradiance = [0.5, 0.5, 0.5]
+[shading]
+model = "measured"
+lut = "out/measured.exr"
+"#;
+
+    fn parse(text: &str) -> Result<Scene, SceneError> {
+        Scene::from_toml_str(text, Path::new("/scenes"), Path::new("/scenes/s.toml"))
+    }
+
+    #[test]
+    fn example_parses() {
+        let scene = parse(EXAMPLE).unwrap();
+        assert_eq!(scene.mesh.path, Path::new("/scenes/bunny.obj"));
+        assert_eq!(scene.mesh.mm_per_unit, 10.0);
+        assert_eq!(scene.camera.msaa_samples, 4);
+        assert_eq!(scene.lights.len(), 2);
+        assert_eq!(scene.lights[0].to_light, Vec3::NEG_X);
+        assert_eq!(
+            scene.shading,
+            ShadingSpec::Measured {
+                lut: "/scenes/out/measured.exr".into()
+            }
+        );
+        // Scale, then rotate about x, then translate.
+        let p = scene
+            .mesh
+            .transform
+            .world_from_model()
+            .transform_point3(Vec3::Y);
+        assert!((p - Vec3::new(1.0, 2.0, 5.0)).length() < 1e-5, "{p}");
+    }
+
+    #[test]
+    fn errors_name_the_file_and_key() {
+        let cases = [
+            ("width = 512", "width = 0", "[camera] width"),
+            ("msaa_samples", "msaa_samples", ""),
+            (
+                "ortho_half_height = 50.0",
+                "ortho_half_height = -1.0",
+                "[camera] ortho_half_height",
+            ),
+            (
+                "projection = \"orthographic\"",
+                "projection = \"fisheye\"",
+                "[camera] projection",
+            ),
+            (
+                "up = [0.0, 1.0, 0.0]",
+                "up = [0.0, 0.0, 1.0]",
+                "[camera] up",
+            ),
+            (
+                "mm_per_unit = 10.0",
+                "mm_per_unit = 0.0",
+                "[mesh] mm_per_unit",
+            ),
+            ("scale = 2.0", "scale = -2.0", "[mesh] scale"),
+            ("lut = \"out/measured.exr\"", "", "[shading] lut"),
+            (
+                "model = \"measured\"",
+                "model = \"lambert\"",
+                "[shading] lut",
+            ),
+            (
+                "model = \"measured\"",
+                "model = \"phong\"",
+                "[shading] model",
+            ),
+            (
+                "irradiance = [0.5, 0.5, 0.5]",
+                "irradiance = [-0.5, 0.5, 0.5]",
+                "[[light]] irradiance",
+            ),
+            (
+                "to_light = [0.0, 1.0, 0.0]",
+                "to_light = [0.0, 0.0, 0.0]",
+                "[[light]] to_light",
+            ),
+            ("width = 512", "width = 512\ncolour = 1", "colour"),
+        ];
+        for (from, to, key) in cases {
+            if from == "msaa_samples" {
+                let text = EXAMPLE.replace("height = 512", "height = 512\nmsaa_samples = 3");
+                let message = parse(&text).unwrap_err().to_string();
+                assert!(message.contains("[camera] msaa_samples"), "{message}");
+                continue;
+            }
+            let text = EXAMPLE.replace(from, to);
+            let message = parse(&text).unwrap_err().to_string();
+            println!("{message}");
+            assert!(message.starts_with("/scenes/s.toml: "), "{message}");
+            assert!(message.contains(key), "{message} lacks {key}");
+        }
+    }
+
+    /// The data set's pixel mapping: pixel (i, j)'s centre projects to that pixel's NDC centre.
+    #[test]
+    fn orthographic_pixel_centres_match_the_data_convention() {
+        let camera = parse(EXAMPLE).unwrap().camera;
+        let clip_from_world = camera.clip_from_view(1.0, 500.0) * camera.view_from_world();
+        let mm_per_px = 100.0 / 512.0;
+        for (i, j) in [(0, 0), (255, 256), (511, 3), (100, 511)] {
+            let x = (i as f32 + 0.5 - 256.0) * mm_per_px;
+            let y = (256.0 - j as f32 - 0.5) * mm_per_px;
+            let clip = clip_from_world * Vec4::new(x, y, 10.0, 1.0);
+            let ndc = clip.truncate() / clip.w;
+            let expected = (
+                (i as f32 + 0.5) / 256.0 - 1.0,
+                1.0 - (j as f32 + 0.5) / 256.0,
+            );
+            assert!(
+                (ndc.x - expected.0).abs() < 1e-5 && (ndc.y - expected.1).abs() < 1e-5,
+                "pixel ({i}, {j}): ndc {ndc}, expected {expected:?}"
+            );
+            assert!((0.0..=1.0).contains(&ndc.z));
+        }
+    }
+
+    #[test]
+    fn perspective_camera_projects_the_target_to_the_centre() {
+        let text = EXAMPLE
+            .replace("ortho_half_height = 50.0", "vertical_fov_deg = 30.0")
+            .replace("\"orthographic\"", "\"perspective\"");
+        let camera = parse(&text).unwrap().camera;
+        let clip_from_world = camera.clip_from_view(1.0, 500.0) * camera.view_from_world();
+        let centre = clip_from_world * Vec4::new(0.0, 0.0, 0.0, 1.0);
+        assert!((centre.x / centre.w).abs() < 1e-6 && (centre.y / centre.w).abs() < 1e-6);
+        // A point at the top edge of the field of view maps to NDC y = 1.
+        let top = 250.0 * 15f32.to_radians().tan();
+        let edge = clip_from_world * Vec4::new(0.0, top, 0.0, 1.0);
+        assert!((edge.y / edge.w - 1.0).abs() < 1e-4, "{}", edge.y / edge.w);
+    }
+}

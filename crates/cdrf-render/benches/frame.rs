@@ -1,0 +1,193 @@
+//! Frame cost of each shading model, in one run: the bunny and a ≥ 1M-triangle torus at
+//! 1024 × 1024 (4× MSAA, depth), N timed frames per model after a warm-up, rounds interleaved
+//! so drift in machine load hits every model alike. Prints ms/frame (median over rounds) and
+//! the ratios the product promises: measured ≤ 1.15 × Lambert and ≤ 1.02 × Gaussian.
+//!
+//! ```text
+//! cargo bench -p cdrf-render --bench frame                 # software adapter (lavapipe)
+//! cargo bench -p cdrf-render --bench frame -- --gpu        # whatever adapter wgpu prefers
+//! cargo bench -p cdrf-render --bench frame -- --frames 50 --rounds 5
+//! ```
+
+use std::error::Error;
+use std::path::PathBuf;
+
+use cdrf_core::gaussian::GaussianCdrf;
+use cdrf_core::glam::Vec3;
+use cdrf_core::scene::{
+    Camera, DirectionalLight, Material, MeshSpec, ModelTransform, Projection, Scene, SceneAssets,
+    ShadingSpec,
+};
+use cdrf_core::{CurvatureOptions, Mesh, mean_curvature_per_mm, read_lut};
+use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
+use cdrf_render::{GaussianEvaluation, LutFiltering, Options};
+
+const SIZE: u32 = 1024;
+
+struct Variant {
+    name: &'static str,
+    material: Material,
+    options: Options,
+}
+
+fn main() -> Result<(), Box<dyn Error>> {
+    let mut frames = 20;
+    let mut rounds = 3;
+    let mut preference = AdapterPreference::Software;
+    let mut args = std::env::args().skip(1);
+    while let Some(arg) = args.next() {
+        match arg.as_str() {
+            "--gpu" => preference = AdapterPreference::Any,
+            "--frames" => frames = args.next().ok_or("--frames needs a number")?.parse()?,
+            "--rounds" => rounds = args.next().ok_or("--rounds needs a number")?.parse()?,
+            "--bench" => {}
+            other => return Err(format!("unknown argument {other}").into()),
+        }
+    }
+    let device = HeadlessDevice::new(preference)?;
+    println!("adapter: {}", device.adapter_description());
+    println!("{SIZE}×{SIZE}, 4× MSAA, {frames} timed frames per model and round, {rounds} rounds");
+
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data");
+    let lut = read_lut(root.join("wax-fit/measured.exr"))?;
+    let gaussian = GaussianCdrf::with_scale([5.39, 5.13, 4.94], [0.85, 0.76, 0.67])?;
+    let view_correction = lut.view_correction().clone();
+    let variants = || {
+        let fast = Options::default();
+        vec![
+            Variant {
+                name: "lambert",
+                material: Material::Lambert { albedo: [0.8; 3] },
+                options: fast,
+            },
+            Variant {
+                name: "measured",
+                material: Material::Measured(lut.clone()),
+                options: fast,
+            },
+            Variant {
+                name: "measured (manual filtering)",
+                material: Material::Measured(lut.clone()),
+                options: Options {
+                    lut_filtering: LutFiltering::Manual,
+                    ..fast
+                },
+            },
+            Variant {
+                name: "gaussian (LUT)",
+                material: Material::Gaussian {
+                    model: gaussian,
+                    view_correction: view_correction.clone(),
+                },
+                options: fast,
+            },
+            Variant {
+                name: "gaussian (analytic)",
+                material: Material::Gaussian {
+                    model: gaussian,
+                    view_correction: view_correction.clone(),
+                },
+                options: Options {
+                    gaussian: GaussianEvaluation::Analytic,
+                    ..fast
+                },
+            },
+        ]
+    };
+
+    let bunny = Mesh::load(root.join("bunny/bunny.obj"))?.mesh;
+    let torus = Mesh::torus(30.0, 14.0, 1024, 512);
+    for (label, mesh, mm_per_unit) in [("bunny", bunny, 10.0), ("torus 1M", torus, 1.0)] {
+        let curvature_per_mm = mean_curvature_per_mm(&mesh, &CurvatureOptions::new(mm_per_unit))?;
+        let (low, high) = bounds(&mesh);
+        let centre = 0.5 * (low + high);
+        let half_height = 0.55 * (high - low).max_element();
+        println!(
+            "\n{label}: {} vertices, {} triangles",
+            mesh.vertex_count(),
+            mesh.triangle_count()
+        );
+        let scene = |shading| Scene {
+            mesh: MeshSpec {
+                path: PathBuf::from(label),
+                mm_per_unit,
+                transform: ModelTransform::default(),
+            },
+            camera: Camera {
+                projection: Projection::Orthographic { half_height },
+                eye: centre + Vec3::new(0.0, 0.0, 4.0 * half_height),
+                target: centre,
+                up: Vec3::Y,
+                width: SIZE,
+                height: SIZE,
+                msaa_samples: 4,
+            },
+            lights: vec![DirectionalLight {
+                to_light: Vec3::new(-1.0, 0.3, 0.5).normalize(),
+                irradiance: [1.0; 3],
+            }],
+            shading,
+        };
+        let variants = variants();
+        let mut times = vec![Vec::new(); variants.len()];
+        let mut assets = SceneAssets {
+            mesh,
+            curvature_per_mm,
+            material: Material::Lambert { albedo: [1.0; 3] },
+        };
+        for _ in 0..rounds {
+            for (variant, times) in variants.iter().zip(&mut times) {
+                assets.material = variant.material.clone();
+                let settings = RenderSettings {
+                    options: variant.options,
+                    timed_frames: frames,
+                    warm_up_frames: 2,
+                };
+                // The shading spec is not read by render_scene (the assets carry the material).
+                let scene = scene(ShadingSpec::Lambert { albedo: [1.0; 3] });
+                let rendered = render_scene(&device, &scene, &assets, &settings)?;
+                times.push(rendered.ms_per_frame.ok_or("no timing")?);
+            }
+        }
+        let medians: Vec<f64> = times.iter().map(|t| median(t)).collect();
+        for (variant, (median, times)) in variants.iter().zip(medians.iter().zip(&times)) {
+            let spread = times.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+                - times.iter().cloned().fold(f64::INFINITY, f64::min);
+            println!(
+                "  {:<28} {median:8.2} ms/frame  (rounds spread {spread:.2} ms)",
+                variant.name
+            );
+        }
+        let ms = |name: &str| medians[variants.iter().position(|v| v.name == name).unwrap()];
+        println!(
+            "  ratio measured / lambert            {:.3}  (goal ≤ 1.15)",
+            ms("measured") / ms("lambert")
+        );
+        println!(
+            "  ratio measured / gaussian (LUT)     {:.3}  (goal ≤ 1.02)",
+            ms("measured") / ms("gaussian (LUT)")
+        );
+        println!(
+            "  ratio gaussian analytic / LUT       {:.3}",
+            ms("gaussian (analytic)") / ms("gaussian (LUT)")
+        );
+        println!(
+            "  ratio manual / hardware filtering   {:.3}",
+            ms("measured (manual filtering)") / ms("measured")
+        );
+    }
+    Ok(())
+}
+
+fn bounds(mesh: &Mesh) -> (Vec3, Vec3) {
+    mesh.positions.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(low, high), &p| (low.min(p), high.max(p)),
+    )
+}
+
+fn median(values: &[f64]) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    sorted[sorted.len() / 2]
+}

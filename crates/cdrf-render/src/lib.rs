@@ -1,0 +1,94 @@
+//! cdrf-render: an embeddable wgpu render pass that shades curvature-tagged meshes with a
+//! curvature-dependent reflectance function (CDRF).
+//!
+//! The pass is *middleware*: the host owns the instance, device, queue, surface and render
+//! pass. [`Renderer::new`] takes the pass's [`TargetDesc`] (colour format, MSAA samples,
+//! optional depth format); meshes and materials are uploaded once; each frame
+//! [`Renderer::prepare`] uploads camera, lights and draw transforms and
+//! [`Renderer::render`] records into the host's `RenderPass`.
+//!
+//! Output is **linear radiance** `L = Σ E/π · f(κ, θ) · g(θ, φ)` over the directional lights
+//! (irradiance `E` per RGB channel), so a render can be compared pixel for pixel with a
+//! physical reference. Shading models, per draw ([`MaterialDesc`]): the measured CDRF (a
+//! [`cdrf_core::CdrfLut`] with its view correction), Kubo's Gaussian CDRF (tabulated or
+//! analytic, [`GaussianEvaluation`]), Lambert, and a curvature view for debugging.
+//!
+//! ```
+//! use cdrf_core::glam::{self, Mat4, Vec3};
+//! use cdrf_core::scene::DirectionalLight;
+//! use cdrf_core::{Mesh, mean_curvature_per_mm, CurvatureOptions};
+//! use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
+//! use cdrf_render::{wgpu, Draw, FrameDesc, MaterialDesc, MeshDesc, Options, Renderer,
+//!                   TargetDesc, ToCamera, View};
+//!
+//! // The host's device (here a software one) and its colour target.
+//! let host = HeadlessDevice::new(AdapterPreference::Software)?;
+//! let (device, queue) = (&host.device, &host.queue);
+//! let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+//! let mut renderer = Renderer::new(device, &TargetDesc::new(format), Options::default());
+//!
+//! // A wax-like sphere of radius 20 mm (mesh units are mm).
+//! let sphere = Mesh::icosphere(20.0, 3);
+//! let curvature = mean_curvature_per_mm(&sphere, &CurvatureOptions::new(1.0))?;
+//! let mesh = renderer.create_mesh(device, &MeshDesc { mesh: &sphere, curvature_per_mm: &curvature })?;
+//! let material = renderer.create_material(device, queue, &MaterialDesc::Lambert { albedo: [0.8; 3] })?;
+//!
+//! // Per frame: camera, lights, draws; then record into the host's pass.
+//! let view = View {
+//!     clip_from_world: glam::camera::rh::proj::directx::orthographic(-25.0, 25.0, -25.0, 25.0, 0.0, 100.0)
+//!         * glam::camera::rh::view::look_at_mat4(Vec3::new(0.0, 0.0, 50.0), Vec3::ZERO, Vec3::Y),
+//!     to_camera: ToCamera::Direction(Vec3::Z),
+//! };
+//! let lights = [DirectionalLight { to_light: Vec3::NEG_X, irradiance: [1.0; 3] }];
+//! let draws = [Draw { mesh, material, world_from_model: Mat4::IDENTITY }];
+//! renderer.prepare(device, queue, &FrameDesc { view, lights: &lights, exposure: 1.0, draws: &draws })?;
+//!
+//! let texture = device.create_texture(&wgpu::TextureDescriptor {
+//!     label: Some("host target"),
+//!     size: wgpu::Extent3d { width: 64, height: 64, depth_or_array_layers: 1 },
+//!     mip_level_count: 1,
+//!     sample_count: 1,
+//!     dimension: wgpu::TextureDimension::D2,
+//!     format,
+//!     usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+//!     view_formats: &[],
+//! });
+//! let target = texture.create_view(&Default::default());
+//! let mut encoder = device.create_command_encoder(&Default::default());
+//! {
+//!     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+//!         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+//!             view: &target,
+//!             depth_slice: None,
+//!             resolve_target: None,
+//!             ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+//!         })],
+//!         ..Default::default()
+//!     });
+//!     renderer.render(&mut pass);
+//! }
+//! queue.submit([encoder.finish()]);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! Without a window, [`headless::render_scene_file`] renders a scene file (format:
+//! [`cdrf_core::scene`]) to an image — what tests, benchmarks and the viewer's `render`
+//! command use.
+//!
+//! # Pass structure
+//! Bind groups 0 (frame: camera, lights), 1 (material: LUT, view correction, parameters) and
+//! 2 (draw: transform, dynamic offset) are set inside [`Renderer::render`]; group 3 is free for
+//! per-light shadow maps, which later need one depth pass per light before the host's pass.
+
+mod gpu_data;
+pub mod headless;
+mod renderer;
+mod target;
+
+pub use renderer::{
+    Draw, FrameDesc, MAX_LIGHTS, MaterialDesc, MaterialError, MaterialId, MeshDesc, MeshId,
+    MeshUploadError, PrepareError, Renderer, SHADER_SOURCE, ToCamera, View,
+};
+pub use target::{GaussianEvaluation, LutFiltering, Options, TargetDesc};
+/// The wgpu this crate is built against (use it to avoid version mismatches).
+pub use wgpu;

@@ -1,0 +1,316 @@
+// cdrf: shading of curvature-tagged meshes with a curvature-dependent reflectance function.
+//
+// Output is linear radiance: L = Σ_lights E/π · f(κ, θ) · g(θ, φ), where f is the table value in
+// the LUT convention π·L/E (a white Lambertian surface gives max(cos θ, 0)), κ the mean curvature
+// in mm⁻¹, θ the angle between the normal and the direction to the light, φ the angle between the
+// normal and the direction to the camera. See crates/cdrf-core/src/lut.rs for the conventions.
+//
+// Bind groups (all owned by cdrf-render's Renderer):
+//   0: frame    camera, lights
+//   1: material LUT, view correction, model parameters
+//   2: draw     model transform (dynamic offset)
+// Group 3 is left free for per-light shadow maps.
+//
+// The shading model and the LUT filtering are pipeline-overridable constants, so each pipeline
+// compiles to one straight-line shader.
+
+const PI: f32 = 3.14159265358979;
+const FRAC_1_PI: f32 = 0.318309886183791;
+const FRAC_2_PI: f32 = 0.636619772367581;
+const FRAC_PI_2: f32 = 1.5707963267949;
+const FRAC_1_SQRT_TAU: f32 = 0.398942280401433;
+const MAX_LIGHTS: u32 = 16u;
+
+// Shading models (MODEL).
+const MODEL_MEASURED: u32 = 0u;
+const MODEL_GAUSSIAN_LUT: u32 = 1u;
+const MODEL_GAUSSIAN_ANALYTIC: u32 = 2u;
+const MODEL_LAMBERT: u32 = 3u;
+const MODEL_CURVATURE: u32 = 4u;
+
+override MODEL: u32 = 0u;
+// true: bilinear filtering by hand (four texel loads, f32 weights); false: the sampler's.
+override MANUAL_FILTERING: bool = false;
+// true when the target is an 8-bit UNORM format that is not sRGB: encode in the shader.
+override ENCODE_SRGB: bool = false;
+
+struct Light {
+    // Unit vector toward the light, world space (w unused).
+    to_light: vec4<f32>,
+    // Irradiance on a surface facing the light, linear RGB (w unused).
+    irradiance: vec4<f32>,
+}
+
+struct Frame {
+    clip_from_world: mat4x4<f32>,
+    // w = 1: xyz is the eye position (perspective); w = 0: xyz is the unit vector toward the
+    // camera (orthographic).
+    to_camera: vec4<f32>,
+    // x: exposure (multiplies the radiance), y: light count.
+    exposure_count: vec4<f32>,
+    lights: array<Light, MAX_LIGHTS>,
+}
+
+struct Material {
+    // Lambert: albedo; Gaussian (analytic): scale per channel.
+    albedo_or_scale: vec4<f32>,
+    // Gaussian (analytic): σ per channel, mm.
+    sigma_mm: vec4<f32>,
+    // κ of the first and last LUT row (mm⁻¹), row count, θ column count.
+    lut_axis: vec4<f32>,
+    // View correction grid: φ columns, θ rows.
+    view_axis: vec4<f32>,
+    // Curvature view: κ mapped to the colour map's ends (mm⁻¹).
+    curvature_range: vec4<f32>,
+}
+
+struct Draw {
+    world_from_model: mat4x4<f32>,
+    // Inverse transpose of world_from_model's upper 3×3 (columns in xyz).
+    normal_from_model: mat4x4<f32>,
+    // x: factor from the mesh's curvature attribute (mm⁻¹) to the drawn object's (1 / scale).
+    curvature_scale: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+@group(1) @binding(0) var<uniform> material: Material;
+@group(1) @binding(1) var lut: texture_2d<f32>;
+@group(1) @binding(2) var view_correction: texture_2d<f32>;
+@group(1) @binding(3) var lut_sampler: sampler;
+@group(2) @binding(0) var<uniform> draw: Draw;
+
+struct VertexIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) curvature_per_mm: f32,
+}
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world_position: vec3<f32>,
+    @location(1) world_normal: vec3<f32>,
+    @location(2) curvature_per_mm: f32,
+}
+
+@vertex
+fn vs_main(vertex: VertexIn) -> VertexOut {
+    let world = draw.world_from_model * vec4<f32>(vertex.position, 1.0);
+    var out: VertexOut;
+    out.clip = frame.clip_from_world * world;
+    out.world_position = world.xyz / world.w;
+    out.world_normal = (draw.normal_from_model * vec4<f32>(vertex.normal, 0.0)).xyz;
+    out.curvature_per_mm = vertex.curvature_per_mm * draw.curvature_scale.x;
+    return out;
+}
+
+// Texture coordinate of a value on a uniform axis over [0, extent] with `count` texels whose
+// centres sit on the axis nodes (node 0 at 0, the last at `extent`); clamped to the end nodes.
+fn node_coordinate(value: f32, extent: f32, count: f32) -> f32 {
+    return clamp(value / extent, 0.0, 1.0) * (count - 1.0);
+}
+
+// Bilinear read of `texture` at continuous node coordinates (column, row).
+fn read_bilinear(texture: texture_2d<f32>, column: f32, row: f32, size: vec2<f32>) -> vec3<f32> {
+    if MANUAL_FILTERING {
+        let last = vec2<i32>(size) - vec2<i32>(1);
+        let base = vec2<i32>(floor(vec2<f32>(column, row)));
+        let t = vec2<f32>(column, row) - vec2<f32>(base);
+        let p00 = clamp(base, vec2<i32>(0), last);
+        let p11 = clamp(base + vec2<i32>(1), vec2<i32>(0), last);
+        let a = textureLoad(texture, p00, 0).rgb;
+        let b = textureLoad(texture, vec2<i32>(p11.x, p00.y), 0).rgb;
+        let c = textureLoad(texture, vec2<i32>(p00.x, p11.y), 0).rgb;
+        let d = textureLoad(texture, p11, 0).rgb;
+        return mix(mix(a, b, t.x), mix(c, d, t.x), t.y);
+    }
+    let uv = (vec2<f32>(column, row) + 0.5) / size;
+    return textureSampleLevel(texture, lut_sampler, uv, 0.0).rgb;
+}
+
+// f(κ, θ) from the LUT: θ across (columns over [0, π]), κ down (rows over the curvature axis,
+// clamped to its ends).
+fn lut_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
+    let axis = material.lut_axis;
+    var row = 0.0;
+    if axis.z > 1.0 && axis.y > axis.x {
+        row = clamp((curvature_per_mm - axis.x) / (axis.y - axis.x), 0.0, 1.0) * (axis.z - 1.0);
+    }
+    let column = node_coordinate(theta, PI, axis.w);
+    return read_bilinear(lut, column, row, axis.wz);
+}
+
+// g(θ, φ): φ across (columns over [0, π/2]), θ down (rows over [0, π]).
+fn view_value(theta: f32, phi: f32) -> vec3<f32> {
+    let axis = material.view_axis;
+    let column = node_coordinate(phi, FRAC_PI_2, axis.x);
+    let row = node_coordinate(theta, PI, axis.y);
+    return read_bilinear(view_correction, column, row, axis.xy);
+}
+
+// (cos⁺ ⊛ g_s)(θ) for θ ∈ [0, π]: the clamped cosine blurred by a wrapped Gaussian of angular
+// standard deviation s. The same two forms as cdrf-core's `convolved_clamped_cosine` (Fourier
+// series for s ≥ 0.25, terminator correction with 16-point Gauss–Legendre below), in f32.
+fn convolved_clamped_cosine(theta: f32, s: f32) -> f32 {
+    if s <= 0.0 {
+        return max(cos(theta), 0.0);
+    }
+    if s >= 0.25 {
+        let q = s * s;
+        let cos_2theta = cos(2.0 * theta);
+        var cos_prev = 1.0;
+        var cos_k = cos_2theta;
+        let step = exp(-4.0 * q);
+        var ratio = exp(-6.0 * q);
+        var damping = exp(-2.0 * q);
+        var series = 0.0;
+        var sign = 1.0;
+        for (var k = 1; k < 32; k++) {
+            let kf = f32(k);
+            let magnitude = damping / (4.0 * kf * kf - 1.0);
+            if magnitude < 1e-8 {
+                break;
+            }
+            series += sign * magnitude * cos_k;
+            sign = -sign;
+            let next = 2.0 * cos_2theta * cos_k - cos_prev;
+            cos_prev = cos_k;
+            cos_k = next;
+            damping *= ratio;
+            ratio *= step;
+        }
+        return FRAC_1_PI + 0.5 * exp(-0.5 * q) * cos(theta) + FRAC_2_PI * series;
+    }
+    // Local form: the kernel offset t = s·u is lit iff t > θ − π/2; the Gaussian is cut at 6s.
+    let u_terminator = (theta - FRAC_PI_2) / s;
+    if u_terminator >= 6.0 {
+        return 0.0;
+    }
+    let full = exp(-0.5 * s * s) * cos(theta);
+    if u_terminator <= -6.0 {
+        return full;
+    }
+    let lit_side = u_terminator <= 0.0;
+    var a = u_terminator;
+    var sign = 1.0;
+    if lit_side {
+        a = -u_terminator;
+        sign = -1.0;
+    }
+    let tail = half_gaussian_tail(theta, s, a, sign);
+    if lit_side {
+        return full - tail;
+    }
+    return tail;
+}
+
+// ∫_a^6 cos(θ ∓ s·u)·φ(u) du (φ the standard normal density), 16-point Gauss–Legendre.
+fn half_gaussian_tail(theta: f32, s: f32, a: f32, sign: f32) -> f32 {
+    var nodes = array<vec2<f32>, 8>(
+        vec2<f32>(0.0950125098376374, 0.189450610455068),
+        vec2<f32>(0.281603550779259, 0.182603415044924),
+        vec2<f32>(0.458016777657227, 0.169156519395003),
+        vec2<f32>(0.617876244402644, 0.149595988816577),
+        vec2<f32>(0.755404408355003, 0.124628971255534),
+        vec2<f32>(0.865631202387832, 0.0951585116824929),
+        vec2<f32>(0.944575023073233, 0.0622535239386478),
+        vec2<f32>(0.98940093499165, 0.0271524594117541),
+    );
+    let mid = 0.5 * (a + 6.0);
+    let half_width = 0.5 * (6.0 - a);
+    let sin_theta = sin(theta);
+    let cos_theta = cos(theta);
+    var sum = 0.0;
+    for (var i = 0; i < 8; i++) {
+        let node = nodes[i];
+        for (var side = -1.0; side <= 1.0; side += 2.0) {
+            let u = mid + side * half_width * node.x;
+            let su = s * u;
+            let value = (cos_theta * cos(su) + sign * sin_theta * sin(su)) * exp(-0.5 * u * u);
+            sum += node.y * half_width * value;
+        }
+    }
+    return sum * FRAC_1_SQRT_TAU;
+}
+
+fn gaussian_analytic(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
+    let kappa = max(curvature_per_mm, 0.0);
+    let s = material.sigma_mm.xyz * kappa;
+    let f = vec3<f32>(
+        convolved_clamped_cosine(theta, s.x),
+        convolved_clamped_cosine(theta, s.y),
+        convolved_clamped_cosine(theta, s.z),
+    );
+    return material.albedo_or_scale.xyz * f;
+}
+
+// A diverging colour map (Moreland's cool–warm ends) over [0, 1], in linear RGB.
+fn cool_warm(t: f32) -> vec3<f32> {
+    let cool = vec3<f32>(0.230, 0.299, 0.754);
+    let middle = vec3<f32>(0.865, 0.865, 0.865);
+    let warm = vec3<f32>(0.706, 0.016, 0.150);
+    let x = clamp(t, 0.0, 1.0);
+    var srgb: vec3<f32>;
+    if x < 0.5 {
+        srgb = mix(cool, middle, x * 2.0);
+    } else {
+        srgb = mix(middle, warm, x * 2.0 - 1.0);
+    }
+    return srgb_to_linear(srgb);
+}
+
+fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
+    let low = c / 12.92;
+    let high = pow((c + 0.055) / 1.055, vec3<f32>(2.4));
+    return select(high, low, c <= vec3<f32>(0.04045));
+}
+
+fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
+    let x = clamp(c, vec3<f32>(0.0), vec3<f32>(1.0));
+    let low = x * 12.92;
+    let high = 1.055 * pow(x, vec3<f32>(1.0 / 2.4)) - 0.055;
+    return select(high, low, x <= vec3<f32>(0.0031308));
+}
+
+// Angle in [0, π] from its cosine.
+fn angle(cosine: f32) -> f32 {
+    return acos(clamp(cosine, -1.0, 1.0));
+}
+
+@fragment
+fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+    let normal = normalize(in.world_normal);
+    var radiance = vec3<f32>(0.0);
+    if MODEL == MODEL_CURVATURE {
+        let range = material.curvature_range;
+        radiance = cool_warm((in.curvature_per_mm - range.x) / max(range.y - range.x, 1e-12));
+    } else {
+        var to_camera = frame.to_camera.xyz;
+        if frame.to_camera.w > 0.5 {
+            to_camera = normalize(frame.to_camera.xyz - in.world_position);
+        }
+        let phi = angle(dot(normal, to_camera));
+        let light_count = min(u32(frame.exposure_count.y), MAX_LIGHTS);
+        for (var i = 0u; i < light_count; i++) {
+            let light = frame.lights[i];
+            let cos_theta = dot(normal, light.to_light.xyz);
+            var f: vec3<f32>;
+            if MODEL == MODEL_LAMBERT {
+                f = material.albedo_or_scale.xyz * max(cos_theta, 0.0);
+            } else {
+                let theta = angle(cos_theta);
+                if MODEL == MODEL_GAUSSIAN_ANALYTIC {
+                    f = gaussian_analytic(in.curvature_per_mm, theta);
+                } else {
+                    f = lut_value(in.curvature_per_mm, theta);
+                }
+                f *= view_value(theta, phi);
+            }
+            radiance += light.irradiance.rgb * FRAC_1_PI * f;
+        }
+        radiance *= frame.exposure_count.x;
+    }
+    if ENCODE_SRGB {
+        radiance = linear_to_srgb(radiance);
+    }
+    return vec4<f32>(radiance, 1.0);
+}

@@ -1,0 +1,67 @@
+//! `data/wax-fit/` must be what cdrf-fit produces from `data/wax-spheres/` today: the render
+//! tests, the benchmark and the viewer read it instead of fitting first.
+
+use cdrf_core::gaussian_file::read_gaussian;
+use cdrf_core::read_lut;
+use cdrf_fit::dataset::Dataset;
+use cdrf_fit::{FitOptions, fit_dataset};
+use cdrf_tests::data_dir;
+
+#[test]
+fn bundled_fit_is_current() {
+    let dataset = Dataset::load(&data_dir().join("wax-spheres")).unwrap_or_else(|e| panic!("{e}"));
+    let fit =
+        fit_dataset(&dataset, &FitOptions::default(), |_| {}).unwrap_or_else(|e| panic!("{e}"));
+    let refresh = "refresh data/wax-fit as data/wax-fit/README.md says";
+    let bundled =
+        read_lut(data_dir().join("wax-fit/measured.exr")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        (bundled.curvature_axis(), bundled.theta_count()),
+        (fit.lut.curvature_axis(), fit.lut.theta_count()),
+        "table shape changed: {refresh}"
+    );
+    // The fit is deterministic up to floating-point summation order across threads.
+    let peak = fit
+        .lut
+        .radiance()
+        .iter()
+        .map(|v| v.max_element())
+        .fold(0.0f32, f32::max);
+    let worst = bundled
+        .radiance()
+        .iter()
+        .zip(fit.lut.radiance())
+        .map(|(a, b)| (*a - *b).abs().max_element())
+        .fold(0.0f32, f32::max);
+    let view_worst = bundled
+        .view_correction()
+        .values()
+        .iter()
+        .zip(fit.lut.view_correction().values())
+        .map(|(a, b)| (*a - *b).abs().max_element())
+        .fold(0.0f32, f32::max);
+    println!(
+        "bundled vs fresh fit: largest LUT difference {worst:e} (peak {peak}), view correction {view_worst:e}"
+    );
+    assert!(worst <= 1e-4 * peak, "LUT differs by {worst}: {refresh}");
+    assert!(
+        view_worst <= 1e-4,
+        "view correction differs by {view_worst}: {refresh}"
+    );
+
+    let gaussian =
+        read_gaussian(data_dir().join("wax-fit/gaussian.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let fresh = &fit.gaussian.model;
+    for c in 0..3 {
+        let sigma = (gaussian.sigma_mm[c] - fresh.sigma_mm()[c]).abs() / fresh.sigma_mm()[c];
+        let scale = (gaussian.scale[c] - fresh.scale()[c]).abs() / fresh.scale()[c];
+        assert!(
+            sigma < 1e-4 && scale < 1e-4,
+            "Gaussian channel {c} differs: {refresh}"
+        );
+    }
+    assert_eq!(
+        gaussian.view_correction_from.as_deref(),
+        Some(std::path::Path::new("measured.exr"))
+    );
+}
