@@ -271,9 +271,13 @@ fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
     return select(high, low, x <= vec3<f32>(0.0031308));
 }
 
-// Angle in [0, π] from its cosine.
+// Angle in [0, π] from its cosine: Abramowitz & Stegun 4.4.45, |error| ≤ 6.8e-5 rad (0.004°,
+// a hundredth of a LUT column), cheaper than acos on software rasterisers.
 fn angle(cosine: f32) -> f32 {
-    return acos(clamp(cosine, -1.0, 1.0));
+    let x = clamp(cosine, -1.0, 1.0);
+    let a = abs(x);
+    let r = sqrt(1.0 - a) * (1.5707288 + a * (-0.2121144 + a * (0.0742610 - 0.0187293 * a)));
+    return select(r, PI - r, x < 0.0);
 }
 
 @fragment

@@ -540,3 +540,320 @@ fn measured_sphere_matches_path_traced() {
         "the measured table must beat the Gaussian CDRF"
     );
 }
+
+/// The shader's table lookup against cdrf-core's on the CPU: on the r = 35 mm sphere every
+/// interior pixel must equal `E/π · f(1/35, θ) · g(θ, φ)` with θ, φ from the analytic normal —
+/// checks the LUT and view-correction texture mapping, the curvature units through the model
+/// transform, and the radiance convention at once.
+#[test]
+fn measured_shader_matches_the_cpu_table() {
+    let mut scene = load_scene("sphere_r35.toml");
+    scene.camera.msaa_samples = 1;
+    let assets = assets(&scene);
+    let Material::Measured(lut) = &assets.material else {
+        panic!("measured scene expected")
+    };
+    let image = render(&scene, &assets);
+    let (mut worst, mut sum, mut count) = (0.0f32, 0.0f32, 0);
+    let radius_px = 230.0;
+    for j in (0..512).step_by(7) {
+        for i in (0..512).step_by(7) {
+            let x = (i as f32 + 0.5 - 256.0) / radius_px;
+            let y = (256.0 - j as f32 - 0.5) / radius_px;
+            let rho2 = x * x + y * y;
+            if rho2 > 0.9 * 0.9 {
+                continue;
+            }
+            let normal = Vec3::new(x, y, (1.0 - rho2).sqrt());
+            let theta = (-normal.x).clamp(-1.0, 1.0).acos();
+            let phi = normal.z.clamp(-1.0, 1.0).acos();
+            let expected = lut.evaluate(1.0 / 35.0, theta, phi, cdrf_core::Filter::Bilinear)
+                / std::f32::consts::PI;
+            let pixel = image.pixel(i, j);
+            // Where the table is tiny (deep shadow) compare against a floor.
+            for c in 0..3 {
+                let floor = 0.002;
+                let error = (pixel[c] - expected[c]).abs() / expected[c].max(floor);
+                worst = worst.max(error);
+                sum += error;
+                count += 1;
+            }
+        }
+    }
+    println!(
+        "shader vs CPU table over {count} samples: mean relative difference {:.4} %, worst {:.3} %",
+        100.0 * sum / count as f32,
+        100.0 * worst
+    );
+    // Half-float texels (2⁻¹¹), interpolated mesh normals (the icosphere's facets) and f32
+    // trigonometry; a wrong texel centre or a wrong curvature row gives several per cent.
+    assert!(sum / (count as f32) < 0.003, "mean {}", sum / count as f32);
+    assert!(worst < 0.02, "worst {worst}");
+}
+
+/// The analytic Gaussian CDRF in the shader agrees with the tabulated one.
+#[test]
+fn analytic_gaussian_matches_tabulated() {
+    let mut scene = load_scene("sphere_r35.toml");
+    scene.camera.width = GOLDEN_SIZE;
+    scene.camera.height = GOLDEN_SIZE;
+    scene.camera.msaa_samples = 1;
+    let mut assets = assets(&scene);
+    let parameters =
+        cdrf_core::gaussian_file::read_gaussian(data_dir().join("wax-fit/gaussian.toml"))
+            .unwrap_or_else(|error| panic!("{error}"));
+    let (model, view_correction) = parameters
+        .load_model(&data_dir().join("wax-fit/gaussian.toml"))
+        .unwrap_or_else(|error| panic!("{error}"));
+    assets.material = Material::Gaussian {
+        model,
+        view_correction,
+    };
+    let mut rendered = Vec::new();
+    for gaussian in [
+        cdrf_render::GaussianEvaluation::Lut,
+        cdrf_render::GaussianEvaluation::Analytic,
+    ] {
+        let settings = RenderSettings {
+            options: Options {
+                gaussian,
+                ..Options::PREDICTABLE
+            },
+            ..RenderSettings::default()
+        };
+        rendered.push(
+            render_scene(device(), &scene, &assets, &settings)
+                .unwrap()
+                .image,
+        );
+    }
+    let (mut worst, mut peak) = (0.0f32, 0.0f32);
+    for (p, q) in rendered[0].pixels.iter().zip(&rendered[1].pixels) {
+        for c in 0..3 {
+            worst = worst.max((p[c] - q[c]).abs());
+            peak = peak.max(p[c]);
+        }
+    }
+    println!(
+        "Gaussian CDRF, tabulated vs analytic in the shader: largest difference {worst:e} (peak {peak})"
+    );
+    assert!(peak > 0.1);
+    assert!(worst < 2e-3 * peak, "largest difference {worst}");
+}
+
+/// The middleware contract: `render` before `prepare` draws nothing and does not panic; a
+/// failed `prepare` draws nothing; a new target gets its own pipeline.
+#[test]
+fn render_before_prepare_and_after_errors_draws_nothing() {
+    use cdrf_core::scene::DirectionalLight;
+    use cdrf_render::{
+        Draw, FrameDesc, MaterialDesc, MeshDesc, PrepareError, Renderer, TargetDesc, ToCamera, View,
+    };
+    let HeadlessDevice { device, queue, .. } = device();
+    let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+    let mut renderer = Renderer::new(device, &TargetDesc::new(format), Options::PREDICTABLE);
+    let draw_into = |renderer: &Renderer, format| -> Vec<u8> {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("test target"),
+            size: wgpu::Extent3d {
+                width: 64,
+                height: 64,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                ..Default::default()
+            });
+            renderer.render(&mut pass);
+        }
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size: 256 * 64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        encoder.copy_texture_to_buffer(
+            texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(256),
+                    rows_per_image: Some(64),
+                },
+            },
+            wgpu::Extent3d {
+                width: 64,
+                height: 64,
+                depth_or_array_layers: 1,
+            },
+        );
+        queue.submit([encoder.finish()]);
+        buffer.map_async(wgpu::MapMode::Read, .., |r| r.unwrap());
+        device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+        buffer.get_mapped_range(..).unwrap().to_vec()
+    };
+    let lit_bytes = |bytes: &[u8]| bytes.iter().filter(|&&b| b != 0).count();
+
+    assert_eq!(
+        lit_bytes(&draw_into(&renderer, format)),
+        0,
+        "render before prepare drew"
+    );
+
+    let sphere = cdrf_core::Mesh::icosphere(20.0, 2);
+    let curvature = vec![1.0 / 20.0; sphere.positions.len()];
+    let mesh = renderer
+        .create_mesh(
+            device,
+            &MeshDesc {
+                mesh: &sphere,
+                curvature_per_mm: &curvature,
+            },
+        )
+        .unwrap();
+    let material = renderer
+        .create_material(device, queue, &MaterialDesc::Lambert { albedo: [0.8; 3] })
+        .unwrap();
+    let view = View {
+        clip_from_world: glam::camera::rh::proj::directx::orthographic(
+            -25.0, 25.0, -25.0, 25.0, 0.0, 100.0,
+        ) * glam::camera::rh::view::look_at_mat4(
+            Vec3::new(0.0, 0.0, 50.0),
+            Vec3::ZERO,
+            Vec3::Y,
+        ),
+        to_camera: ToCamera::Direction(Vec3::Z),
+    };
+    let draws = [Draw {
+        mesh,
+        material,
+        world_from_model: glam::Mat4::IDENTITY,
+    }];
+    let frame = |lights: &'static [DirectionalLight]| FrameDesc {
+        view,
+        lights,
+        exposure: 1.0,
+        draws: &draws,
+    };
+    static ONE: [DirectionalLight; 1] = [DirectionalLight {
+        to_light: Vec3::NEG_X,
+        irradiance: [1.0; 3],
+    }];
+    renderer.prepare(device, queue, &frame(&ONE)).unwrap();
+    let drawn = lit_bytes(&draw_into(&renderer, format));
+    assert!(drawn > 1000, "{drawn} bytes drawn");
+
+    // Too many lights: an error, and nothing drawn afterwards.
+    static MANY: [DirectionalLight; 17] = [DirectionalLight {
+        to_light: Vec3::NEG_X,
+        irradiance: [1.0; 3],
+    }; 17];
+    let error = renderer.prepare(device, queue, &frame(&MANY)).unwrap_err();
+    assert!(
+        matches!(error, PrepareError::TooManyLights { count: 17 }),
+        "{error}"
+    );
+    println!("prepare error: {error}");
+    assert_eq!(lit_bytes(&draw_into(&renderer, format)), 0);
+
+    // A removed mesh: an error naming the draw.
+    renderer.remove_mesh(mesh);
+    let error = renderer.prepare(device, queue, &frame(&ONE)).unwrap_err();
+    println!("prepare error: {error}");
+    assert!(matches!(error, PrepareError::UnknownMesh { index: 0, .. }));
+
+    // Another target format: a pipeline of its own, same picture (sRGB encoding either way).
+    let mesh = renderer
+        .create_mesh(
+            device,
+            &MeshDesc {
+                mesh: &sphere,
+                curvature_per_mm: &curvature,
+            },
+        )
+        .unwrap();
+    let draws = [Draw {
+        mesh,
+        material,
+        world_from_model: glam::Mat4::IDENTITY,
+    }];
+    let frame = FrameDesc {
+        view,
+        lights: &ONE,
+        exposure: 1.0,
+        draws: &draws,
+    };
+    renderer.prepare(device, queue, &frame).unwrap();
+    let srgb = draw_into(&renderer, format);
+    let unorm_format = wgpu::TextureFormat::Rgba8Unorm;
+    renderer.set_target(&TargetDesc::new(unorm_format));
+    assert_eq!(
+        lit_bytes(&draw_into(&renderer, unorm_format)),
+        0,
+        "stale draws after set_target"
+    );
+    renderer.prepare(device, queue, &frame).unwrap();
+    let unorm = draw_into(&renderer, unorm_format);
+    let worst = srgb
+        .iter()
+        .zip(&unorm)
+        .map(|(a, b)| a.abs_diff(*b))
+        .max()
+        .unwrap();
+    println!("Rgba8UnormSrgb vs Rgba8Unorm target: largest byte difference {worst}");
+    assert!(worst <= 1);
+}
+
+/// Bad scene input gives an error naming the file and the problem, not a panic.
+#[test]
+fn bad_scene_files_are_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene_path = dir.path().join("bad.toml");
+    let original = std::fs::read_to_string(data_dir().join("scenes/sphere_r35.toml")).unwrap();
+    let sphere = data_dir().join("sphere/unit_sphere.obj");
+    let fixed = original
+        .replace("../sphere/unit_sphere.obj", &sphere.display().to_string())
+        .replace("../wax-fit/measured.exr", "missing.exr");
+    std::fs::write(&scene_path, &fixed).unwrap();
+    let error = render_scene_file(&scene_path).unwrap_err();
+    println!("{error}");
+    assert!(
+        error.contains("[shading] lut") && error.contains("missing.exr"),
+        "{error}"
+    );
+
+    std::fs::write(&scene_path, fixed.replace("width = 512", "width = 0")).unwrap();
+    let error = render_scene_file(&scene_path).unwrap_err();
+    println!("{error}");
+    assert!(
+        error.contains("bad.toml") && error.contains("[camera] width"),
+        "{error}"
+    );
+}
+
+fn render_scene_file(path: &std::path::Path) -> Result<RgbaImage, String> {
+    let scene = Scene::load(path).map_err(|e| e.to_string())?;
+    let assets = scene.load_assets().map_err(|e| e.to_string())?;
+    render_scene(device(), &scene, &assets, &RenderSettings::default())
+        .map(|r| r.image)
+        .map_err(|e| e.to_string())
+}

@@ -109,7 +109,24 @@ impl GaussianParameters {
 
     /// The file's text: a comment header explaining the model, then the keys.
     pub fn to_toml_string(&self) -> String {
-        let keys = toml::to_string(self).unwrap_or_default();
+        // The same keys with the path as (lossy) UTF-8, so serialising cannot fail: TOML
+        // strings are UTF-8, and numbers and strings always serialise.
+        #[derive(Serialize)]
+        struct Keys {
+            sigma_mm: [f32; 3],
+            scale: [f32; 3],
+            #[serde(skip_serializing_if = "Option::is_none")]
+            view_correction_from: Option<String>,
+        }
+        let keys = toml::to_string(&Keys {
+            sigma_mm: self.sigma_mm,
+            scale: self.scale,
+            view_correction_from: self
+                .view_correction_from
+                .as_ref()
+                .map(|path| path.to_string_lossy().into_owned()),
+        })
+        .expect("numbers and UTF-8 strings always serialise to TOML");
         format!(
             "# Kubo et al. 2010 Gaussian CDRF.\n\
              # Radiance: L = E/pi * scale * (cos+ convolved with a Gaussian of angular width sigma_mm * curvature) * g,\n\

@@ -43,6 +43,9 @@ pub mod scene;
 pub use glam;
 
 pub use curvature::{CurvatureError, CurvatureOptions, mean_curvature_per_mm};
+pub use gaussian_file::{GaussianParameters, read_gaussian, write_gaussian};
+pub use image_file::RgbaImage;
 pub use lut::{Cdrf, CdrfLut, CurvatureAxis, Filter, ViewCorrection};
 pub use lut_file::{read_lut, write_lut};
 pub use mesh::{LoadError, Mesh, RepairReport};
+pub use scene::{Scene, SceneAssets};

@@ -285,8 +285,9 @@ pub enum SceneError {
         /// What is wrong.
         problem: String,
     },
-    /// The mesh could not be loaded.
-    #[error("[mesh] path: {error}")]
+    /// The mesh could not be loaded. The message includes the loader's cause (which
+    /// [`LoadError`] keeps as its `source`), so printing this error alone says why.
+    #[error("[mesh] path: {error}{}", causes(error))]
     Mesh {
         /// The mesh loader's error (names the mesh file).
         error: LoadError,
@@ -311,6 +312,18 @@ pub enum SceneError {
         /// The parameter file's error (names that file).
         error: GaussianFileError,
     },
+}
+
+/// `": cause: its cause …"` for every error in `error`'s source chain (empty without one).
+fn causes(error: &dyn std::error::Error) -> String {
+    let mut text = String::new();
+    let mut next = error.source();
+    while let Some(cause) = next {
+        text.push_str(": ");
+        text.push_str(&cause.to_string());
+        next = cause.source();
+    }
+    text
 }
 
 #[derive(Deserialize)]
@@ -855,5 +868,33 @@ lut = "out/measured.exr"
         let top = 250.0 * 15f32.to_radians().tan();
         let edge = clip_from_world * Vec4::new(0.0, top, 0.0, 1.0);
         assert!((edge.y / edge.w - 1.0).abs() < 1e-4, "{}", edge.y / edge.w);
+    }
+
+    /// Asset errors say which key and which file failed, and why (the OS's reason included).
+    #[test]
+    fn asset_errors_name_the_key_the_file_and_the_cause() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene_path = dir.path().join("s.toml");
+        std::fs::write(&scene_path, EXAMPLE).unwrap();
+        let scene = Scene::load(&scene_path).unwrap();
+        let message = scene.load_assets().unwrap_err().to_string();
+        println!("{message}");
+        assert!(message.starts_with("[mesh] path: "), "{message}");
+        assert!(message.contains("bunny.obj"), "{message}");
+        let os_reason = std::io::Error::from(std::io::ErrorKind::NotFound).to_string();
+        assert!(
+            message.contains("os error") || message.contains(&os_reason),
+            "the cause is missing: {message}"
+        );
+
+        std::fs::write(
+            dir.path().join("bunny.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        )
+        .unwrap();
+        let message = scene.load_assets().unwrap_err().to_string();
+        println!("{message}");
+        assert!(message.starts_with("[shading] lut: "), "{message}");
+        assert!(message.contains("measured.exr"), "{message}");
     }
 }

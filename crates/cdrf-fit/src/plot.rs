@@ -16,6 +16,7 @@
 
 use std::fmt::Write as _;
 
+use cdrf_core::image_file::linear_to_srgb;
 use glam::Vec3;
 use image::{Rgb, RgbImage};
 
@@ -1023,7 +1024,8 @@ pub fn heatmap_png(values: &[f32], width: usize, height: usize, scale: ColorScal
 }
 
 /// A picture of linear RGB values (`width` × `height`, row-major, row 0 at the top): multiplied
-/// by `exposure`, clamped to [0, 1] (NaN → 0) and sRGB-encoded.
+/// by `exposure`, clamped to [0, 1] (NaN → 0) and sRGB-encoded
+/// ([`cdrf_core::image_file::linear_to_srgb`], the one sRGB curve of the workspace).
 ///
 /// # Panics
 /// If `values.len() != width * height`, or a dimension does not fit in `u32`.
@@ -1044,15 +1046,6 @@ pub fn rgb_png_srgb(values: &[Vec3], width: usize, height: usize, exposure: f32)
         *pixel = Rgb([encode(value.x), encode(value.y), encode(value.z)]);
     }
     image
-}
-
-/// The exact sRGB encoding curve (IEC 61966-2-1) for a linear value in [0, 1].
-pub fn linear_to_srgb(linear: f32) -> f32 {
-    if linear <= 0.003_130_8 {
-        12.92 * linear
-    } else {
-        1.055 * linear.powf(1.0 / 2.4) - 0.055
-    }
 }
 
 /// `image` enlarged by whole factors, each source pixel becoming a `scale_x` × `scale_y` block

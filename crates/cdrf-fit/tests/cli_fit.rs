@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, ExitStatus};
 use std::time::SystemTime;
 
+use cdrf_core::image_file::linear_to_srgb;
 use cdrf_fit::image_io::load_linear_image;
 
 /// The files `cdrf-fit` writes into OUTDIR, sorted.
@@ -282,15 +283,6 @@ fn write_exr(
         (r, g, b)
     })
     .expect("write test EXR");
-}
-
-/// The exact sRGB encoding curve (IEC 61966-2-1) for a linear value in [0, 1].
-fn linear_to_srgb(linear: f32) -> f32 {
-    if linear <= 0.003_130_8 {
-        12.92 * linear
-    } else {
-        1.055 * linear.powf(1.0 / 2.4) - 0.055
-    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -587,17 +579,26 @@ fn three_spheres_give_every_output() {
     assert_eq!(axis.count, 64, "default --curvature-count");
     assert_eq!(lut.theta_count(), 361, "default --theta-count");
 
-    let gaussian: toml::Table =
-        toml::from_str(&std::fs::read_to_string(cmd.out().join("gaussian.toml")).unwrap())
-            .expect("gaussian.toml is TOML");
-    for key in ["sigma_mm", "scale"] {
-        let values = gaussian[key].as_array().unwrap_or_else(|| panic!("{key}"));
-        assert_eq!(values.len(), 3, "{key}: {values:?}");
-        for v in values {
-            let v = v.as_float().unwrap_or_else(|| panic!("{key}: {v:?}"));
-            assert!(v.is_finite() && v > 0.0, "{key}: {values:?}");
-        }
+    // gaussian.toml is cdrf-core's format: it reads back, and its view correction is the one
+    // in measured.exr next to it.
+    let gaussian_path = cmd.out().join("gaussian.toml");
+    let gaussian = cdrf_core::gaussian_file::read_gaussian(&gaussian_path)
+        .unwrap_or_else(|error| panic!("{error}"));
+    for (key, values) in [("sigma_mm", gaussian.sigma_mm), ("scale", gaussian.scale)] {
+        assert!(
+            values.iter().all(|v| v.is_finite() && *v > 0.0),
+            "{key}: {values:?}"
+        );
     }
+    assert_eq!(
+        gaussian.view_correction_from.as_deref(),
+        Some(Path::new("measured.exr"))
+    );
+    let (model, view_correction) = gaussian
+        .load_model(&gaussian_path)
+        .unwrap_or_else(|error| panic!("{error}"));
+    assert_eq!(model.sigma_mm(), gaussian.sigma_mm);
+    assert_eq!(&view_correction, lut.view_correction());
 
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(cmd.out().join("report.json")).unwrap())

@@ -3,10 +3,11 @@
 //!
 //! Set `CDRF_PLOT_SAMPLES=DIR` to also write the sample plots there for a look.
 
+use cdrf_core::image_file::linear_to_srgb;
 use cdrf_fit::image_io::srgb_to_linear;
 use cdrf_fit::plot::{
     ColorScale, Colormap, LinePlot, LineStyle, NO_DATA_COLOR, PALETTE, Series, heatmap_png,
-    linear_to_srgb, rgb_png_srgb, upscale_nearest,
+    rgb_png_srgb, upscale_nearest,
 };
 use glam::Vec3;
 

@@ -12,7 +12,8 @@
 //! ```
 //!
 //! `MESH` defaults to `data/bunny/bunny.obj`, `MM_PER_UNIT` (millimetres per model unit, which
-//! sets the curvature and so how translucent the model looks) to 10 for the bunny, else 1.
+//! sets the curvature and so how translucent the model looks) to 10 when `MESH` is omitted
+//! (the bunny is 9.66 units, 97 mm, tall), else 1.
 //! Keys: `1` measured CDRF, `2` Gaussian CDRF, `3` Lambert, `4` curvature (blue concave, red
 //! convex); `←`/`→` move the light around the vertical axis, `↑`/`↓` raise and lower it (either
 //! stops the rotation), `Space` starts or stops the rotation, `M` toggles 4× MSAA, `Esc` quits.
@@ -42,15 +43,14 @@
 use std::error::Error;
 use std::f32::consts::{FRAC_PI_2, PI};
 use std::fmt;
-use std::io::ErrorKind;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use cdrf_core::gaussian::GaussianCdrf;
+use cdrf_core::gaussian_file::read_gaussian;
 use cdrf_core::glam::Vec3;
 use cdrf_core::glam::camera::rh::{proj::directx, view};
-use cdrf_core::lut_file::LutFileError;
 use cdrf_core::scene::DirectionalLight;
 use cdrf_core::{CdrfLut, CurvatureOptions, Mesh, ViewCorrection, mean_curvature_per_mm, read_lut};
 use cdrf_render::{
@@ -72,9 +72,11 @@ const MEASURED_LUT_PATH: &str = concat!(
 );
 /// One bunny unit is 10 mm (data/bunny/README.md).
 const BUNNY_MM_PER_UNIT: f32 = 10.0;
-/// Kubo's Gaussian CDRF fitted to the same wax: σ (mm) and scale per RGB channel.
-const WAX_SIGMA_MM: [f32; 3] = [5.39, 5.13, 4.94];
-const WAX_SCALE: [f32; 3] = [0.85, 0.76, 0.67];
+/// Kubo's Gaussian CDRF fitted to the same wax photographs (shares the table's view correction).
+const GAUSSIAN_PATH: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../data/wax-fit/gaussian.toml"
+);
 
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 const MSAA_SAMPLES: u32 = 4;
@@ -147,8 +149,8 @@ struct Config {
 
 impl Config {
     const USAGE: &str = "usage: winit_host [MESH.obj|.gltf|.glb] [MM_PER_UNIT]\n\
-        MESH defaults to the bundled bunny; MM_PER_UNIT (millimetres per model unit) to 10 for \
-        the bunny, 1 otherwise.\n\
+        MESH defaults to the bundled bunny; MM_PER_UNIT (millimetres per model unit) to 10 when \
+        MESH is omitted, 1 otherwise.\n\
         CDRF_EXIT_AFTER_FRAMES=N exits after N presented frames.";
 
     /// `None` when only help was asked for.
@@ -204,8 +206,7 @@ struct SceneData {
     name: String,
     mesh: Mesh,
     curvature_per_mm: Vec<f32>,
-    /// `None` when `measured.exr` is missing (then key 1 shows the Gaussian CDRF).
-    measured: Option<CdrfLut>,
+    measured: CdrfLut,
     gaussian: GaussianCdrf,
     view_correction: ViewCorrection,
     /// Ends of the curvature view's colour map, mm⁻¹.
@@ -226,25 +227,11 @@ impl SceneData {
             mean_curvature_per_mm(&mesh, &CurvatureOptions::new(config.mm_per_unit))
                 .map_err(|e| Failure::caused(format!("{}: curvature", path.display()), &e))?;
 
-        let gaussian = GaussianCdrf::with_scale(WAX_SIGMA_MM, WAX_SCALE)
-            .map_err(|e| Failure::caused("the Gaussian CDRF", &e))?;
-        let measured = match read_lut(MEASURED_LUT_PATH) {
-            Ok(lut) => Some(lut),
-            Err(LutFileError::Io { error, .. }) if error.kind() == ErrorKind::NotFound => {
-                println!(
-                    "{}: not found; showing the Gaussian CDRF (σ = {WAX_SIGMA_MM:?} mm) with no \
-                     view correction instead of the measured one",
-                    Path::new(MEASURED_LUT_PATH).display()
-                );
-                None
-            }
-            Err(error) => return Err(Failure::caused("reading the measured CDRF", &error)),
-        };
-        let view_correction = measured
-            .as_ref()
-            .map_or_else(ViewCorrection::identity, |lut| {
-                lut.view_correction().clone()
-            });
+        let measured = read_lut(MEASURED_LUT_PATH)
+            .map_err(|e| Failure::caused("reading the measured CDRF", &e))?;
+        let (gaussian, view_correction) = read_gaussian(GAUSSIAN_PATH)
+            .and_then(|parameters| parameters.load_model(Path::new(GAUSSIAN_PATH)))
+            .map_err(|e| Failure::caused("reading the Gaussian CDRF", &e))?;
 
         // The colour map spans ±(95th percentile of |κ|), so a few spikes don't wash it out.
         let mut magnitudes: Vec<f32> = curvature_per_mm.iter().map(|k| k.abs()).collect();
@@ -311,10 +298,9 @@ impl Shading {
         self as usize
     }
 
-    fn name(self, has_measured: bool) -> &'static str {
+    fn name(self) -> &'static str {
         match self {
-            Self::Measured if has_measured => "measured CDRF",
-            Self::Measured => "measured CDRF missing: Gaussian",
+            Self::Measured => "measured CDRF",
             Self::Gaussian => "Gaussian CDRF",
             Self::Lambert => "Lambert",
             Self::Curvature => "curvature",
@@ -491,13 +477,14 @@ impl Gpu {
             view_correction: &scene.view_correction,
         };
         let descs = [
-            match &scene.measured {
-                Some(lut) => MaterialDesc::Measured { lut },
-                None => gaussian_desc,
+            MaterialDesc::Measured {
+                lut: &scene.measured,
             },
             gaussian_desc,
             // The Gaussian's scale as albedo: same colour, no translucency.
-            MaterialDesc::Lambert { albedo: WAX_SCALE },
+            MaterialDesc::Lambert {
+                albedo: scene.gaussian.scale(),
+            },
             MaterialDesc::Curvature {
                 range_per_mm: scene.curvature_range_per_mm,
             },
@@ -845,7 +832,7 @@ impl App {
             gpu.window.set_title(&format!(
                 "cdrf winit_host — {} — {} — {}× MSAA — {ms_per_frame:.1} ms/frame",
                 self.scene.name,
-                self.shading.name(self.scene.measured.is_some()),
+                self.shading.name(),
                 gpu.target.sample_count,
             ));
             self.title_since = now;

@@ -198,8 +198,8 @@ impl HeadlessDevice {
 pub struct RenderSettings {
     /// Renderer options.
     pub options: Options,
-    /// Frames rendered and timed after the image is taken (0: no timing). Each frame is
-    /// submitted and waited for, so the time covers upload, GPU work and synchronisation.
+    /// Frames rendered and timed after the image is taken (0: no timing). They are submitted
+    /// back to back and waited for once; the time per frame covers uploads and GPU work.
     pub timed_frames: u32,
     /// Untimed frames before the timed ones.
     pub warm_up_frames: u32,
@@ -311,7 +311,12 @@ pub fn render_scene(
         draws: &draws,
     };
 
-    let targets = Targets::new(&device.device, &target, width, height);
+    // The far plane is depth 1, or 0 for a reversed-Z comparison.
+    let depth_clear = match settings.options.depth_compare {
+        wgpu::CompareFunction::Greater | wgpu::CompareFunction::GreaterEqual => 0.0,
+        _ => 1.0,
+    };
+    let targets = Targets::new(&device.device, &target, width, height, depth_clear);
     let render_frame = |renderer: &mut Renderer| -> Result<wgpu::CommandBuffer, HeadlessError> {
         renderer
             .prepare(&device.device, &device.queue, &frame)
@@ -345,12 +350,14 @@ pub fn render_scene(
             device.queue.submit([commands]);
             wait(&device.device)?;
         }
+        // Frames are submitted back to back and waited for once, as an application's frames
+        // overlap: the time is throughput, not the latency of one frame plus a round trip.
         let start = Instant::now();
         for _ in 0..settings.timed_frames {
             commands = render_frame(&mut renderer)?;
             device.queue.submit([commands]);
-            wait(&device.device)?;
         }
+        wait(&device.device)?;
         ms_per_frame = Some(start.elapsed().as_secs_f64() * 1e3 / f64::from(settings.timed_frames));
     }
     if let Some(error) = block_on(scope.pop()) {
@@ -389,12 +396,19 @@ struct Targets {
     resolved: wgpu::Texture,
     resolved_view: wgpu::TextureView,
     depth: wgpu::TextureView,
+    depth_clear: f32,
     width: u32,
     height: u32,
 }
 
 impl Targets {
-    fn new(device: &wgpu::Device, target: &TargetDesc, width: u32, height: u32) -> Self {
+    fn new(
+        device: &wgpu::Device,
+        target: &TargetDesc,
+        width: u32,
+        height: u32,
+        depth_clear: f32,
+    ) -> Self {
         let texture = |label, format, samples, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -439,6 +453,7 @@ impl Targets {
             resolved_view: resolved.create_view(&Default::default()),
             resolved,
             depth,
+            depth_clear,
             width,
             height,
         }
@@ -465,7 +480,7 @@ impl Targets {
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &self.depth,
                 depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
+                    load: wgpu::LoadOp::Clear(self.depth_clear),
                     store: wgpu::StoreOp::Discard,
                 }),
                 stencil_ops: None,
