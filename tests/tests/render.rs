@@ -42,6 +42,15 @@ fn load_scene(name: &str) -> Scene {
     Scene::load(&path).unwrap_or_else(|error| panic!("{error}"))
 }
 
+/// A bundled scene at golden-image size with the given MSAA sample count.
+fn golden_scene(name: &str, msaa_samples: u32) -> Scene {
+    let mut scene = load_scene(name);
+    scene.camera.width = GOLDEN_SIZE;
+    scene.camera.height = GOLDEN_SIZE;
+    scene.camera.msaa_samples = msaa_samples;
+    scene
+}
+
 fn assets(scene: &Scene) -> SceneAssets {
     scene
         .load_assets()
@@ -128,10 +137,7 @@ fn bunny_models() {
 /// mm — renders the same: curvature follows the transform's scale.
 #[test]
 fn scaled_mesh_matches_mm_per_unit() {
-    let mut by_transform = load_scene("sphere_r35.toml");
-    by_transform.camera.width = GOLDEN_SIZE;
-    by_transform.camera.height = GOLDEN_SIZE;
-    by_transform.camera.msaa_samples = 1;
+    let by_transform = golden_scene("sphere_r35.toml", 1);
     assert_eq!(by_transform.mesh.transform.scale, 35.0);
     let mut by_units = by_transform.clone();
     by_units.mesh.transform.scale = 1.0;
@@ -190,10 +196,7 @@ fn scaled_mesh_matches_mm_per_unit() {
 /// single-sampled render.
 #[test]
 fn msaa_sphere() {
-    let mut scene = load_scene("sphere_r35.toml");
-    scene.camera.width = GOLDEN_SIZE;
-    scene.camera.height = GOLDEN_SIZE;
-    scene.camera.msaa_samples = 4;
+    let mut scene = golden_scene("sphere_r35.toml", 4);
     let assets = assets(&scene);
     let msaa = render(&scene, &assets);
     scene.camera.msaa_samples = 1;
@@ -239,10 +242,7 @@ fn msaa_sphere() {
 /// match the float render encoded on the CPU.
 #[test]
 fn non_srgb_target() {
-    let mut scene = load_scene("bunny.toml");
-    scene.camera.width = GOLDEN_SIZE;
-    scene.camera.height = GOLDEN_SIZE;
-    scene.camera.msaa_samples = 1;
+    let scene = golden_scene("bunny.toml", 1);
     let assets = assets(&scene);
     let float = render(&scene, &assets);
     let unorm = render_unorm(&scene, &assets);
@@ -299,6 +299,19 @@ fn render_unorm(scene: &Scene, assets: &SceneAssets) -> Srgb8Image {
             },
         )
         .unwrap();
+    record_and_read_back(&renderer, format, Some(depth_format), width, height)
+}
+
+/// Records `renderer` into a fresh pass on a host-owned `width × height` 8-bit `format` target
+/// (with a depth attachment when given; cleared to transparent black) and reads it back.
+fn record_and_read_back(
+    renderer: &cdrf_render::Renderer,
+    format: wgpu::TextureFormat,
+    depth_format: Option<wgpu::TextureFormat>,
+    width: u32,
+    height: u32,
+) -> Srgb8Image {
+    let HeadlessDevice { device, queue, .. } = device();
     let texture = |format, usage| {
         device.create_texture(&wgpu::TextureDescriptor {
             label: Some("test target"),
@@ -319,9 +332,11 @@ fn render_unorm(scene: &Scene, assets: &SceneAssets) -> Srgb8Image {
         format,
         wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
     );
-    let depth = texture(depth_format, wgpu::TextureUsages::RENDER_ATTACHMENT);
     let color_view = color.create_view(&Default::default());
-    let depth_view = depth.create_view(&Default::default());
+    let depth_view = depth_format.map(|depth_format| {
+        texture(depth_format, wgpu::TextureUsages::RENDER_ATTACHMENT)
+            .create_view(&Default::default())
+    });
     let mut encoder = device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -335,13 +350,15 @@ fn render_unorm(scene: &Scene, assets: &SceneAssets) -> Srgb8Image {
                     store: wgpu::StoreOp::Store,
                 },
             })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Discard,
-                }),
-                stencil_ops: None,
+            depth_stencil_attachment: depth_view.as_ref().map(|view| {
+                wgpu::RenderPassDepthStencilAttachment {
+                    view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }
             }),
             ..Default::default()
         });
@@ -594,10 +611,7 @@ fn measured_shader_matches_the_cpu_table() {
 /// The analytic Gaussian CDRF in the shader agrees with the tabulated one.
 #[test]
 fn analytic_gaussian_matches_tabulated() {
-    let mut scene = load_scene("sphere_r35.toml");
-    scene.camera.width = GOLDEN_SIZE;
-    scene.camera.height = GOLDEN_SIZE;
-    scene.camera.msaa_samples = 1;
+    let scene = golden_scene("sphere_r35.toml", 1);
     let mut assets = assets(&scene);
     let parameters =
         cdrf_core::gaussian_file::read_gaussian(data_dir().join("wax-fit/gaussian.toml"))
@@ -653,63 +667,8 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
     let mut renderer = Renderer::new(device, &TargetDesc::new(format), Options::PREDICTABLE);
     let draw_into = |renderer: &Renderer, format| -> Vec<u8> {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("test target"),
-            size: wgpu::Extent3d {
-                width: 64,
-                height: 64,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
-        let view = texture.create_view(&Default::default());
-        let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                ..Default::default()
-            });
-            renderer.render(&mut pass);
-        }
-        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: None,
-            size: 256 * 64,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        encoder.copy_texture_to_buffer(
-            texture.as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(256),
-                    rows_per_image: Some(64),
-                },
-            },
-            wgpu::Extent3d {
-                width: 64,
-                height: 64,
-                depth_or_array_layers: 1,
-            },
-        );
-        queue.submit([encoder.finish()]);
-        buffer.map_async(wgpu::MapMode::Read, .., |r| r.unwrap());
-        device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
-        buffer.get_mapped_range(..).unwrap().to_vec()
+        let image = record_and_read_back(renderer, format, None, 64, 64);
+        image.pixels.into_iter().flatten().collect()
     };
     let lit_bytes = |bytes: &[u8]| bytes.iter().filter(|&&b| b != 0).count();
 
@@ -721,15 +680,18 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
 
     let sphere = cdrf_core::Mesh::icosphere(20.0, 2);
     let curvature = vec![1.0 / 20.0; sphere.positions.len()];
-    let mesh = renderer
-        .create_mesh(
-            device,
-            &MeshDesc {
-                mesh: &sphere,
-                curvature_per_mm: &curvature,
-            },
-        )
-        .unwrap();
+    let upload = |renderer: &mut Renderer| {
+        renderer
+            .create_mesh(
+                device,
+                &MeshDesc {
+                    mesh: &sphere,
+                    curvature_per_mm: &curvature,
+                },
+            )
+            .unwrap()
+    };
+    let mesh = upload(&mut renderer);
     let material = renderer
         .create_material(device, queue, &MaterialDesc::Lambert { albedo: [0.8; 3] })
         .unwrap();
@@ -782,15 +744,7 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
     assert!(matches!(error, PrepareError::UnknownMesh { index: 0, .. }));
 
     // Another target format: a pipeline of its own, same picture (sRGB encoding either way).
-    let mesh = renderer
-        .create_mesh(
-            device,
-            &MeshDesc {
-                mesh: &sphere,
-                curvature_per_mm: &curvature,
-            },
-        )
-        .unwrap();
+    let mesh = upload(&mut renderer);
     let draws = [Draw {
         mesh,
         material,
