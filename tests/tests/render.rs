@@ -811,3 +811,36 @@ fn render_scene_file(path: &std::path::Path) -> Result<RgbaImage, String> {
         .map(|r| r.image)
         .map_err(|e| e.to_string())
 }
+
+/// A perspective camera: the sphere at the target lands centred, with the size the field of
+/// view predicts (radius on screen = r / (d·tan(fov/2)) · H/2 for a sphere seen from d ≫ r,
+/// here corrected for the exact tangent cone).
+#[test]
+fn perspective_camera_frames_the_sphere() {
+    let mut scene = golden_scene("sphere_r35.toml", 4);
+    scene.camera.projection = cdrf_core::scene::Projection::Perspective {
+        vertical_fov_deg: 20.0,
+    };
+    let image = render(&scene, &assets(&scene));
+    let (mut sum, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
+    for (index, pixel) in image.pixels.iter().enumerate() {
+        let a = f64::from(pixel[3]);
+        sum += a;
+        sx += a * ((index as u32 % image.width) as f64 + 0.5);
+        sy += a * ((index as u32 / image.width) as f64 + 0.5);
+    }
+    let (cx, cy) = (sx / sum, sy / sum);
+    // Apparent angular radius of a sphere of radius r at distance d: asin(r/d).
+    let (r, d) = (35.0f64, 450.0f64);
+    let half = f64::from(GOLDEN_SIZE) / 2.0;
+    let radius_px = (r / d).asin().tan() / 10f64.to_radians().tan() * half;
+    let expected_area = std::f64::consts::PI * radius_px * radius_px;
+    println!(
+        "perspective: coverage centroid ({cx:.2}, {cy:.2}), area {sum:.0} px², expected {expected_area:.0}"
+    );
+    assert!((cx - half).abs() < 0.2 && (cy - half).abs() < 0.2);
+    assert!(
+        (sum / expected_area - 1.0).abs() < 0.02,
+        "area {sum} vs {expected_area}"
+    );
+}
