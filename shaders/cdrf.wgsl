@@ -85,11 +85,13 @@ struct VertexIn {
     @location(2) curvature_per_mm: f32,
 }
 
+// Centroid interpolation: with MSAA, a silhouette pixel whose centre lies outside the triangle
+// is shaded inside it instead of at an extrapolated normal.
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
-    @location(0) world_position: vec3<f32>,
-    @location(1) world_normal: vec3<f32>,
-    @location(2) curvature_per_mm: f32,
+    @location(0) @interpolate(perspective, centroid) world_position: vec3<f32>,
+    @location(1) @interpolate(perspective, centroid) world_normal: vec3<f32>,
+    @location(2) @interpolate(perspective, centroid) curvature_per_mm: f32,
 }
 
 @vertex

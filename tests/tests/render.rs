@@ -18,7 +18,7 @@ use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
 /// Renders of the same scene on lavapipe are byte-identical from run to run (TOOLCHAIN.md);
 /// the tolerance only absorbs rounding differences between Mesa/LLVM versions. Set on
 /// llvmpipe (LLVM 15.0.6, Mesa 22.3.6): any real change of shading, mapping or geometry moves
-/// the mean FLIP well above 0.01 on these images (a 1° light rotation gives ~0.02).
+/// the mean FLIP above the threshold (rotating the light by 0.5° gives 0.009, by 1° 0.013).
 const TOLERANCE: Tolerance = Tolerance {
     mean_flip: 0.005,
     max_flip_fraction_above_0_1: 0.002,
@@ -225,16 +225,25 @@ fn msaa_sphere() {
                 .all(|r| msaa.pixels[r * width + c][3] >= 1.0)
         })
     };
-    let interior_difference = msaa
+    let differences: Vec<f32> = msaa
         .pixels
         .iter()
         .zip(&single.pixels)
         .enumerate()
         .filter(|(index, _)| interior(*index))
         .map(|(_, (p, q))| (p[0] - q[0]).abs())
-        .fold(0.0f32, f32::max);
-    println!("largest interior difference MSAA vs single sample: {interior_difference:e}");
-    assert!(interior_difference < 1e-3);
+        .collect();
+    let largest = differences.iter().cloned().fold(0.0f32, f32::max);
+    let mean = differences.iter().sum::<f32>() / differences.len() as f32;
+    println!(
+        "interior difference MSAA vs single sample: mean {mean:e}, largest {largest:e} over {} pixels",
+        differences.len()
+    );
+    // Interior pixels are shaded once per triangle; where a triangle covers only some samples
+    // (along interior triangle edges), centroid interpolation shades it at those samples'
+    // centroid instead of the pixel centre, a fraction of a pixel away.
+    assert!(mean < 2e-4, "mean {mean}");
+    assert!(largest < 1e-2, "largest {largest}");
     assert_golden("sphere_msaa", &srgb8(&msaa), TOLERANCE);
 }
 
@@ -551,10 +560,16 @@ fn measured_sphere_matches_path_traced() {
     );
     // The fit reproduces this photograph to ~1.5 % (lit and terminator blocks, cdrf-fit's
     // report); the render adds half-float tables, tessellation and MSAA edges.
-    assert!(measured_lit < 0.03, "measured lit error {measured_lit}");
+    assert!(measured_lit < 0.015, "measured lit error {measured_lit}");
+    // The whole disk includes the shadow side, where the photograph's noise is tens of per
+    // cent per pixel (7.5 % after block averaging when this bound was set).
     assert!(
-        measured_all < gaussian_all,
-        "the measured table must beat the Gaussian CDRF"
+        measured_all < 0.10,
+        "measured whole-disk error {measured_all}"
+    );
+    assert!(
+        measured_all < 0.5 * gaussian_all,
+        "the measured table must beat the Gaussian CDRF clearly"
     );
 }
 
@@ -570,7 +585,25 @@ fn measured_shader_matches_the_cpu_table() {
     let Material::Measured(lut) = &assets.material else {
         panic!("measured scene expected")
     };
-    let image = render(&scene, &assets);
+    for lut_filtering in [
+        cdrf_render::LutFiltering::Manual,
+        cdrf_render::LutFiltering::Hardware,
+    ] {
+        let settings = RenderSettings {
+            options: Options {
+                lut_filtering,
+                ..Options::PREDICTABLE
+            },
+            ..RenderSettings::default()
+        };
+        let image = render_scene(device(), &scene, &assets, &settings)
+            .unwrap_or_else(|error| panic!("{error}"))
+            .image;
+        compare_with_cpu_table(&image, lut, &format!("{lut_filtering:?} filtering"));
+    }
+}
+
+fn compare_with_cpu_table(image: &RgbaImage, lut: &cdrf_core::CdrfLut, label: &str) {
     let (mut worst, mut sum, mut count) = (0.0f32, 0.0f32, 0);
     let radius_px = 230.0;
     for j in (0..512).step_by(7) {
@@ -598,14 +631,19 @@ fn measured_shader_matches_the_cpu_table() {
         }
     }
     println!(
-        "shader vs CPU table over {count} samples: mean relative difference {:.4} %, worst {:.3} %",
+        "shader ({label}) vs CPU table over {count} samples: mean relative difference {:.4} %, worst {:.3} %",
         100.0 * sum / count as f32,
         100.0 * worst
     );
-    // Half-float texels (2⁻¹¹), interpolated mesh normals (the icosphere's facets) and f32
-    // trigonometry; a wrong texel centre or a wrong curvature row gives several per cent.
-    assert!(sum / (count as f32) < 0.003, "mean {}", sum / count as f32);
-    assert!(worst < 0.02, "worst {worst}");
+    // Half-float texels (2⁻¹¹), interpolated mesh normals (the icosphere's facets), f32
+    // trigonometry and, with the sampler, 8-bit filter weights; a wrong texel centre or a
+    // wrong curvature row gives several per cent.
+    assert!(
+        sum / (count as f32) < 0.003,
+        "{label}: mean {}",
+        sum / count as f32
+    );
+    assert!(worst < 0.02, "{label}: worst {worst}");
 }
 
 /// The analytic Gaussian CDRF in the shader agrees with the tabulated one.
@@ -623,6 +661,15 @@ fn analytic_gaussian_matches_tabulated() {
         model,
         view_correction,
     };
+    // r = 35 mm: σκ ≈ 0.15 (the terminator quadrature); r = 10 mm: σκ ≈ 0.5 (the Fourier series).
+    for radius_mm in [35.0, 10.0] {
+        let mut scene = scene.clone();
+        scene.mesh.transform.scale = radius_mm;
+        compare_gaussian_evaluations(&scene, &assets, radius_mm);
+    }
+}
+
+fn compare_gaussian_evaluations(scene: &Scene, assets: &SceneAssets, radius_mm: f32) {
     let mut rendered = Vec::new();
     for gaussian in [
         cdrf_render::GaussianEvaluation::Lut,
@@ -636,7 +683,7 @@ fn analytic_gaussian_matches_tabulated() {
             ..RenderSettings::default()
         };
         rendered.push(
-            render_scene(device(), &scene, &assets, &settings)
+            render_scene(device(), scene, assets, &settings)
                 .unwrap()
                 .image,
         );
@@ -649,10 +696,13 @@ fn analytic_gaussian_matches_tabulated() {
         }
     }
     println!(
-        "Gaussian CDRF, tabulated vs analytic in the shader: largest difference {worst:e} (peak {peak})"
+        "Gaussian CDRF, r = {radius_mm} mm, tabulated vs analytic in the shader: largest difference {worst:e} (peak {peak})"
     );
     assert!(peak > 0.1);
-    assert!(worst < 2e-3 * peak, "largest difference {worst}");
+    assert!(
+        worst < 2e-3 * peak,
+        "r = {radius_mm} mm: largest difference {worst}"
+    );
 }
 
 /// The middleware contract: `render` before `prepare` draws nothing and does not panic; a
@@ -843,4 +893,90 @@ fn perspective_camera_frames_the_sphere() {
         (sum / expected_area - 1.0).abs() < 0.02,
         "area {sum} vs {expected_area}"
     );
+}
+
+/// Input the device or the maths cannot use is an error from `prepare`, never a panic: a
+/// mirroring transform, a zero camera direction, a negative exposure, and a target the device
+/// cannot render to (an integer colour format, 3 MSAA samples).
+#[test]
+fn prepare_rejects_unusable_input() {
+    use cdrf_core::scene::DirectionalLight;
+    use cdrf_render::{
+        Draw, FrameDesc, MaterialDesc, MeshDesc, PrepareError, Renderer, TargetDesc, ToCamera, View,
+    };
+    let HeadlessDevice { device, queue, .. } = device();
+    let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+    let mut renderer = Renderer::new(device, &TargetDesc::new(format), Options::PREDICTABLE);
+    let sphere = cdrf_core::Mesh::icosphere(20.0, 1);
+    let curvature = vec![1.0 / 20.0; sphere.positions.len()];
+    let mesh = renderer
+        .create_mesh(
+            device,
+            &MeshDesc {
+                mesh: &sphere,
+                curvature_per_mm: &curvature,
+            },
+        )
+        .unwrap();
+    let material = renderer
+        .create_material(device, queue, &MaterialDesc::Lambert { albedo: [0.8; 3] })
+        .unwrap();
+    let lights = [DirectionalLight {
+        to_light: Vec3::NEG_X,
+        irradiance: [1.0; 3],
+    }];
+    let view = View {
+        clip_from_world: glam::Mat4::IDENTITY,
+        to_camera: ToCamera::Direction(Vec3::Z),
+    };
+    let draw = |world_from_model| {
+        [Draw {
+            mesh,
+            material,
+            world_from_model,
+        }]
+    };
+    let ok = draw(glam::Mat4::IDENTITY);
+    let frame = |view, exposure, draws| FrameDesc {
+        view,
+        lights: &lights,
+        exposure,
+        draws,
+    };
+    renderer
+        .prepare(device, queue, &frame(view, 1.0, &ok))
+        .unwrap();
+
+    let mirrored = draw(glam::Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)));
+    let error = renderer
+        .prepare(device, queue, &frame(view, 1.0, &mirrored))
+        .unwrap_err();
+    println!("{error}");
+    assert!(matches!(error, PrepareError::BadTransform { index: 0 }));
+
+    let nowhere = View {
+        to_camera: ToCamera::Direction(Vec3::ZERO),
+        ..view
+    };
+    let error = renderer
+        .prepare(device, queue, &frame(nowhere, 1.0, &ok))
+        .unwrap_err();
+    println!("{error}");
+    assert!(matches!(error, PrepareError::BadView));
+    let error = renderer
+        .prepare(device, queue, &frame(view, -1.0, &ok))
+        .unwrap_err();
+    assert!(matches!(error, PrepareError::BadView));
+
+    for target in [
+        TargetDesc::new(wgpu::TextureFormat::Rgba8Uint),
+        TargetDesc::new(format).with_sample_count(3),
+    ] {
+        renderer.set_target(&target);
+        let error = renderer
+            .prepare(device, queue, &frame(view, 1.0, &ok))
+            .unwrap_err();
+        println!("{error}");
+        assert!(matches!(error, PrepareError::Pipeline { .. }), "{error}");
+    }
 }

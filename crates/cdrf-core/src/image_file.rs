@@ -155,14 +155,20 @@ impl RgbaImage {
             .collect()
     }
 
-    /// Writes an 8-bit sRGB RGBA PNG preview ([`RgbaImage::to_srgb8`]), atomically.
+    /// Writes an 8-bit sRGB PNG preview: the colours of [`RgbaImage::to_srgb8`], opaque (the
+    /// radiance is already over black, as in the path-traced previews; a straight alpha would
+    /// darken silhouettes twice), atomically.
     ///
     /// # Errors
     /// [`ImageFileError`] naming `path`.
     pub fn write_png_srgb(&self, path: impl AsRef<Path>) -> Result<(), ImageFileError> {
         let path = path.as_ref();
         self.check_shape(path)?;
-        let bytes: Vec<u8> = self.to_srgb8().into_iter().flatten().collect();
+        let bytes: Vec<u8> = self
+            .to_srgb8()
+            .into_iter()
+            .flat_map(|[r, g, b, _]| [r, g, b])
+            .collect();
         atomic::write_file(path, |file| {
             let mut writer = BufWriter::new(file);
             image::write_buffer_with_format(
@@ -170,7 +176,7 @@ impl RgbaImage {
                 &bytes,
                 self.width,
                 self.height,
-                image::ExtendedColorType::Rgba8,
+                image::ExtendedColorType::Rgb8,
                 image::ImageFormat::Png,
             )
             .map_err(std::io::Error::other)?;
@@ -236,11 +242,13 @@ mod tests {
         let path = dir.path().join("a.png");
         let image = gradient();
         image.write_png_srgb(&path).unwrap();
-        let decoded = image::open(&path).unwrap().to_rgba8();
+        let decoded = image::open(&path).unwrap();
+        assert_eq!(decoded.color(), image::ColorType::Rgb8);
+        let decoded = decoded.to_rgb8();
         assert_eq!(decoded.dimensions(), (7, 3));
         let expected = image.to_srgb8();
         for (ours, theirs) in expected.iter().zip(decoded.pixels()) {
-            assert_eq!(ours, &theirs.0);
+            assert_eq!(ours[..3], theirs.0);
         }
     }
 

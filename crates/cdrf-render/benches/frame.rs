@@ -13,7 +13,7 @@
 use std::error::Error;
 use std::path::PathBuf;
 
-use cdrf_core::gaussian::GaussianCdrf;
+use cdrf_core::gaussian_file::read_gaussian;
 use cdrf_core::glam::Vec3;
 use cdrf_core::scene::{
     Camera, DirectionalLight, Material, MeshSpec, ModelTransform, Projection, Scene, SceneAssets,
@@ -53,8 +53,8 @@ fn main() -> Result<(), Box<dyn Error>> {
 
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data");
     let lut = read_lut(root.join("wax-fit/measured.exr"))?;
-    let gaussian = GaussianCdrf::with_scale([5.39, 5.13, 4.94], [0.85, 0.76, 0.67])?;
-    let view_correction = lut.view_correction().clone();
+    let gaussian_path = root.join("wax-fit/gaussian.toml");
+    let (gaussian, view_correction) = read_gaussian(&gaussian_path)?.load_model(&gaussian_path)?;
     let variants = || {
         let fast = Options::default();
         vec![

@@ -1,6 +1,12 @@
 //! Plain-old-data packing for uniforms, vertices and half-float textures (no `unsafe`, no
 //! extra dependencies).
 
+use std::future::Future;
+use std::pin::pin;
+use std::sync::Arc;
+use std::task::{Context, Poll, Wake, Waker};
+use std::thread::{self, Thread};
+
 use cdrf_core::glam::{Mat4, Vec3, Vec4};
 
 /// Little helper that appends f32s in native byte order, as the GPU reads them.
@@ -96,6 +102,26 @@ pub(crate) fn rgba16f_texels(values: &[Vec3]) -> Vec<u8> {
         }
     }
     bytes
+}
+
+/// Runs a future to completion on this thread (wgpu's adapter and device requests resolve
+/// at once on native backends; this just drives them without an async runtime).
+pub(crate) fn block_on<F: Future>(future: F) -> F::Output {
+    struct ThreadWaker(Thread);
+    impl Wake for ThreadWaker {
+        fn wake(self: Arc<Self>) {
+            self.0.unpark();
+        }
+    }
+    let waker = Waker::from(Arc::new(ThreadWaker(thread::current())));
+    let mut context = Context::from_waker(&waker);
+    let mut future = pin!(future);
+    loop {
+        match future.as_mut().poll(&mut context) {
+            Poll::Ready(output) => return output,
+            Poll::Pending => thread::park(),
+        }
+    }
 }
 
 #[cfg(test)]

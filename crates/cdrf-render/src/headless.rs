@@ -11,19 +11,14 @@
 //! at the top, has its centre at `x = (i + 0.5 − W/2)·2h/H` along the camera's right axis.
 
 use std::fmt;
-use std::future::Future;
 use std::path::{Path, PathBuf};
-use std::pin::pin;
-use std::sync::Arc;
-use std::task::{Context, Poll, Wake, Waker};
-use std::thread::{self, Thread};
 use std::time::Instant;
 
 use cdrf_core::glam::Mat4;
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::scene::{Material, Projection, Scene, SceneAssets, SceneError};
 
-use crate::gpu_data::f16_bits_to_f32;
+use crate::gpu_data::{block_on, f16_bits_to_f32};
 use crate::renderer::{
     Draw, FrameDesc, MaterialDesc, MaterialError, MeshDesc, MeshUploadError, PrepareError,
     Renderer, View,
@@ -148,12 +143,10 @@ impl HeadlessDevice {
             let software = info.device_type == wgpu::DeviceType::Cpu;
             let vulkan = info.backend == wgpu::Backend::Vulkan;
             match preference {
-                AdapterPreference::Software => (software, vulkan),
+                AdapterPreference::Software => (software, false, vulkan),
                 AdapterPreference::Any => (
-                    matches!(
-                        info.device_type,
-                        wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::IntegratedGpu
-                    ),
+                    info.device_type == wgpu::DeviceType::DiscreteGpu,
+                    info.device_type == wgpu::DeviceType::IntegratedGpu,
                     vulkan,
                 ),
             }
@@ -266,7 +259,13 @@ pub fn render_scene(
         .device
         .push_error_scope(wgpu::ErrorFilter::Validation);
 
-    let mut renderer = Renderer::new(&device.device, &target, settings.options);
+    // Headless builds its own projection (depth 0 at near, 1 at far), so the depth test is
+    // `Less` whatever the options say.
+    let options = Options {
+        depth_compare: wgpu::CompareFunction::Less,
+        ..settings.options
+    };
+    let mut renderer = Renderer::new(&device.device, &target, options);
     let mesh = renderer
         .create_mesh(
             &device.device,
@@ -311,12 +310,7 @@ pub fn render_scene(
         draws: &draws,
     };
 
-    // The far plane is depth 1, or 0 for a reversed-Z comparison.
-    let depth_clear = match settings.options.depth_compare {
-        wgpu::CompareFunction::Greater | wgpu::CompareFunction::GreaterEqual => 0.0,
-        _ => 1.0,
-    };
-    let targets = Targets::new(&device.device, &target, width, height, depth_clear);
+    let targets = Targets::new(&device.device, &target, width, height);
     let render_frame = |renderer: &mut Renderer| -> Result<wgpu::CommandBuffer, HeadlessError> {
         renderer
             .prepare(&device.device, &device.queue, &frame)
@@ -396,19 +390,12 @@ struct Targets {
     resolved: wgpu::Texture,
     resolved_view: wgpu::TextureView,
     depth: wgpu::TextureView,
-    depth_clear: f32,
     width: u32,
     height: u32,
 }
 
 impl Targets {
-    fn new(
-        device: &wgpu::Device,
-        target: &TargetDesc,
-        width: u32,
-        height: u32,
-        depth_clear: f32,
-    ) -> Self {
+    fn new(device: &wgpu::Device, target: &TargetDesc, width: u32, height: u32) -> Self {
         let texture = |label, format, samples, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -453,7 +440,6 @@ impl Targets {
             resolved_view: resolved.create_view(&Default::default()),
             resolved,
             depth,
-            depth_clear,
             width,
             height,
         }
@@ -480,7 +466,7 @@ impl Targets {
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &self.depth,
                 depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(self.depth_clear),
+                    load: wgpu::LoadOp::Clear(1.0),
                     store: wgpu::StoreOp::Discard,
                 }),
                 stencil_ops: None,
@@ -575,24 +561,4 @@ fn wait(device: &wgpu::Device) -> Result<(), HeadlessError> {
         .poll(wgpu::PollType::wait_indefinitely())
         .map(|_| ())
         .map_err(|error| HeadlessError::Gpu(format!("waiting for the GPU: {error}")))
-}
-
-/// Runs a future to completion on this thread (wgpu's adapter and device requests resolve
-/// at once on native backends; this just drives them without an async runtime).
-fn block_on<F: Future>(future: F) -> F::Output {
-    struct ThreadWaker(Thread);
-    impl Wake for ThreadWaker {
-        fn wake(self: Arc<Self>) {
-            self.0.unpark();
-        }
-    }
-    let waker = Waker::from(Arc::new(ThreadWaker(thread::current())));
-    let mut context = Context::from_waker(&waker);
-    let mut future = pin!(future);
-    loop {
-        match future.as_mut().poll(&mut context) {
-            Poll::Ready(output) => return output,
-            Poll::Pending => thread::park(),
-        }
-    }
 }

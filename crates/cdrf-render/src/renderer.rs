@@ -11,7 +11,7 @@ use cdrf_core::scene::DirectionalLight;
 use cdrf_core::{CdrfLut, CurvatureAxis, Mesh, ViewCorrection};
 use wgpu::util::DeviceExt;
 
-use crate::gpu_data::{Bytes, rgba16f_texels};
+use crate::gpu_data::{Bytes, block_on, rgba16f_texels};
 use crate::target::{GaussianEvaluation, LutFiltering, Options, TargetDesc};
 
 /// The WGSL source of every pipeline (`shaders/cdrf.wgsl`).
@@ -215,13 +215,21 @@ pub enum PrepareError {
         /// Its material.
         material: MaterialId,
     },
-    /// A draw's transform is singular or not finite.
+    /// A draw's transform is singular, mirroring (negative determinant) or not finite.
     BadTransform {
         /// The draw.
         index: usize,
     },
-    /// The view matrix or exposure is not finite.
+    /// The view matrix, camera position or direction, or exposure is unusable.
     BadView,
+    /// The device refused the pipeline for the current target (an unsupported colour format,
+    /// sample count or depth format).
+    Pipeline {
+        /// The target.
+        target: TargetDesc,
+        /// What wgpu said.
+        message: String,
+    },
 }
 
 impl fmt::Display for MeshUploadError {
@@ -283,12 +291,16 @@ impl fmt::Display for PrepareError {
             }
             Self::BadTransform { index } => write!(
                 f,
-                "draw {index}: the model transform is singular or not finite"
+                "draw {index}: the model transform is singular, mirroring or not finite"
             ),
             Self::BadView => write!(
                 f,
-                "the view matrix, camera position or exposure is not finite"
+                "the view matrix or camera position is not finite, the camera direction is zero, \
+                 or the exposure is negative or not finite"
             ),
+            Self::Pipeline { target, message } => {
+                write!(f, "the device cannot render to {target:?}: {message}")
+            }
         }
     }
 }
@@ -720,7 +732,9 @@ impl Renderer {
         };
         if !frame.view.clip_from_world.is_finite()
             || !to_camera.is_finite()
+            || (is_point == 0.0 && to_camera == Vec3::ZERO)
             || !frame.exposure.is_finite()
+            || frame.exposure < 0.0
         {
             return Err(PrepareError::BadView);
         }
@@ -742,10 +756,12 @@ impl Renderer {
             };
             let linear = Mat3::from_mat4(draw.world_from_model);
             let determinant = linear.determinant();
-            if !draw.world_from_model.is_finite() || determinant.abs() < 1e-30 {
+            // A mirroring transform (determinant < 0) would flip the winding and cull the
+            // wrong faces.
+            if !draw.world_from_model.is_finite() || determinant < 1e-30 {
                 return Err(PrepareError::BadTransform { index });
             }
-            let curvature_scale = 1.0 / determinant.abs().cbrt();
+            let curvature_scale = 1.0 / determinant.cbrt();
             let normal_from_model = Mat4::from_mat3(linear.inverse().transpose());
             let offset = draws.0.len() as u32;
             draws
@@ -753,7 +769,7 @@ impl Renderer {
                 .mat4(normal_from_model)
                 .vec4(Vec4::new(curvature_scale, 0.0, 0.0, 0.0))
                 .pad_to(self.draw_stride as usize);
-            self.ensure_pipeline(device, material.model);
+            self.ensure_pipeline(device, material.model)?;
             prepared.push(PreparedDraw {
                 mesh: draw.mesh,
                 material: draw.material,
@@ -868,11 +884,15 @@ impl Renderer {
         ))
     }
 
-    fn ensure_pipeline(&mut self, device: &wgpu::Device, model: Model) {
+    /// Builds the pipeline for the current target and `model` unless cached. wgpu reports a
+    /// target the device cannot use through an error scope, returned here instead of reaching
+    /// the host's uncaptured-error handler.
+    fn ensure_pipeline(&mut self, device: &wgpu::Device, model: Model) -> Result<(), PrepareError> {
         let key = (self.target, model);
         if self.pipelines.contains_key(&key) {
-            return;
+            return Ok(());
         }
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let target = self.target;
         let constants = [
             ("MODEL", model as u32 as f64),
@@ -937,7 +957,14 @@ impl Renderer {
             multiview_mask: None,
             cache: None,
         });
+        if let Some(error) = block_on(scope.pop()) {
+            return Err(PrepareError::Pipeline {
+                target: self.target,
+                message: error.to_string(),
+            });
+        }
         self.pipelines.insert(key, pipeline);
+        Ok(())
     }
 }
 

@@ -40,13 +40,14 @@ impl TargetDesc {
 
     /// Whether the shader writes sRGB-encoded values. The renderer shades in linear radiance;
     /// an sRGB format encodes on store, a float format keeps linear radiance (HDR), and an
-    /// 8-bit (or 10-bit) UNORM format that is not sRGB (e.g. a `Bgra8Unorm` swap chain) gets
-    /// the sRGB curve applied in the shader so it displays correctly.
+    /// 8-bit or 10-bit UNORM display format that is not sRGB (`Rgba8Unorm`, `Bgra8Unorm` — e.g.
+    /// eframe's swap chain — or `Rgb10a2Unorm`) gets the sRGB curve applied in the shader so it
+    /// displays correctly. Other formats (e.g. `Rgba16Unorm`) receive linear radiance.
     pub fn encodes_srgb_in_shader(&self) -> bool {
         use TextureFormat as F;
         matches!(
             self.color_format,
-            F::Rgba8Unorm | F::Bgra8Unorm | F::Rgb10a2Unorm | F::Rgba16Unorm
+            F::Rgba8Unorm | F::Bgra8Unorm | F::Rgb10a2Unorm
         )
     }
 }
