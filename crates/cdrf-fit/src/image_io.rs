@@ -539,30 +539,12 @@ fn convert_u8(
     saturation_code: u8,
 ) -> Converted {
     let color_space = color_space.unwrap_or(ColorSpace::default_for(SampleFormat::U8));
-    let table: [f32; 256] = std::array::from_fn(|code| {
-        let encoded = code as f32 / 255.0;
-        exposure
-            * match color_space {
-                ColorSpace::Linear => encoded,
-                ColorSpace::Srgb => srgb_to_linear(encoded),
-            }
+    // 256 codes: decode each once.
+    let table: [f32; 256] =
+        std::array::from_fn(|code| decode_code(code as f32 / 255.0, color_space, exposure));
+    let (pixels, saturated) = convert_integer(raw, channels, saturation_code, |code| {
+        table[usize::from(code)]
     });
-    let count = raw.len() / channels;
-    let mut pixels = Vec::with_capacity(count);
-    let mut saturated = Vec::with_capacity(count);
-    for px in raw.chunks_exact(channels) {
-        let rgb = if channels < 3 {
-            [px[0]; 3]
-        } else {
-            [px[0], px[1], px[2]]
-        };
-        pixels.push(Vec3::new(
-            table[usize::from(rgb[0])],
-            table[usize::from(rgb[1])],
-            table[usize::from(rgb[2])],
-        ));
-        saturated.push(rgb.iter().any(|&c| c >= saturation_code));
-    }
     (pixels, saturated, SampleFormat::U8, color_space)
 }
 
@@ -573,14 +555,29 @@ fn convert_u16(
     exposure: f32,
 ) -> Converted {
     let color_space = color_space.unwrap_or(ColorSpace::default_for(SampleFormat::U16));
-    let decode = |code: u16| {
-        let encoded = f32::from(code) / 65535.0;
-        exposure
-            * match color_space {
-                ColorSpace::Linear => encoded,
-                ColorSpace::Srgb => srgb_to_linear(encoded),
-            }
-    };
+    let (pixels, saturated) = convert_integer(raw, channels, u16::MAX, |code| {
+        decode_code(f32::from(code) / 65535.0, color_space, exposure)
+    });
+    (pixels, saturated, SampleFormat::U16, color_space)
+}
+
+/// Linear radiance of one normalised integer code (0..=1) in `color_space`, times `exposure`.
+fn decode_code(encoded: f32, color_space: ColorSpace, exposure: f32) -> f32 {
+    exposure
+        * match color_space {
+            ColorSpace::Linear => encoded,
+            ColorSpace::Srgb => srgb_to_linear(encoded),
+        }
+}
+
+/// Pixels of interleaved integer samples (grey when fewer than three channels) decoded by
+/// `decode`, and whether any of a pixel's channels reaches `saturation_code`.
+fn convert_integer<T: Copy + PartialOrd>(
+    raw: &[T],
+    channels: usize,
+    saturation_code: T,
+    decode: impl Fn(T) -> f32,
+) -> (Vec<Vec3>, Vec<bool>) {
     let count = raw.len() / channels;
     let mut pixels = Vec::with_capacity(count);
     let mut saturated = Vec::with_capacity(count);
@@ -591,9 +588,9 @@ fn convert_u16(
             [px[0], px[1], px[2]]
         };
         pixels.push(Vec3::new(decode(rgb[0]), decode(rgb[1]), decode(rgb[2])));
-        saturated.push(rgb.contains(&u16::MAX));
+        saturated.push(rgb.iter().any(|&c| c >= saturation_code));
     }
-    (pixels, saturated, SampleFormat::U16, color_space)
+    (pixels, saturated)
 }
 
 fn convert_f32(
