@@ -170,22 +170,37 @@ fn main() -> Result<(), Box<dyn Error>> {
             );
         }
         let ms = |name: &str| fastest[variants.iter().position(|v| v.name == name).unwrap()];
-        println!(
-            "  ratio measured / lambert            {:.3}  (goal ≤ 1.15)",
-            ms("measured") / ms("lambert")
-        );
-        println!(
-            "  ratio measured / gaussian (LUT)     {:.3}  (goal ≤ 1.02)",
-            ms("measured") / ms("gaussian (LUT)")
-        );
-        println!(
-            "  ratio gaussian analytic / LUT       {:.3}",
-            ms("gaussian (analytic)") / ms("gaussian (LUT)")
-        );
-        println!(
-            "  ratio manual / hardware filtering   {:.3}",
-            ms("measured (manual filtering)") / ms("measured")
-        );
+        for (label, numerator, denominator, goal) in [
+            (
+                "measured / lambert",
+                "measured",
+                "lambert",
+                " (goal ≤ 1.15)",
+            ),
+            (
+                "measured / gaussian (LUT)",
+                "measured",
+                "gaussian (LUT)",
+                " (goal ≤ 1.02)",
+            ),
+            (
+                "gaussian analytic / LUT",
+                "gaussian (analytic)",
+                "gaussian (LUT)",
+                "",
+            ),
+            (
+                "manual / hardware filtering",
+                "measured (manual filtering)",
+                "measured",
+                "",
+            ),
+        ] {
+            println!(
+                "  ratio {label:<29} {:.3}{goal}",
+                ms(numerator) / ms(denominator)
+            );
+        }
     }
     Ok(())
 }
