@@ -705,17 +705,85 @@ fn compare_gaussian_evaluations(scene: &Scene, assets: &SceneAssets, radius_mm: 
     );
 }
 
+/// One directional light from the image's left, irradiance 1.
+const ONE_LIGHT: [cdrf_core::scene::DirectionalLight; 1] = [cdrf_core::scene::DirectionalLight {
+    to_light: Vec3::NEG_X,
+    irradiance: [1.0; 3],
+}];
+
+/// A renderer for `format` holding a 20 mm icosphere and a Lambert material, and an
+/// orthographic view of it from +z — the fixture of the pass-contract tests.
+struct LambertSphere {
+    renderer: cdrf_render::Renderer,
+    mesh: cdrf_render::MeshId,
+    material: cdrf_render::MaterialId,
+    view: cdrf_render::View,
+}
+
+impl LambertSphere {
+    fn new(format: wgpu::TextureFormat, subdivisions: u32) -> Self {
+        let HeadlessDevice { device, queue, .. } = device();
+        let mut renderer = cdrf_render::Renderer::new(
+            device,
+            &cdrf_render::TargetDesc::new(format),
+            Options::PREDICTABLE,
+        );
+        let mesh = Self::upload_mesh(&mut renderer, subdivisions);
+        let material = renderer
+            .create_material(
+                device,
+                queue,
+                &cdrf_render::MaterialDesc::Lambert { albedo: [0.8; 3] },
+            )
+            .unwrap();
+        let view = cdrf_render::View {
+            clip_from_world: glam::camera::rh::proj::directx::orthographic(
+                -25.0, 25.0, -25.0, 25.0, 0.0, 100.0,
+            ) * glam::camera::rh::view::look_at_mat4(
+                Vec3::new(0.0, 0.0, 50.0),
+                Vec3::ZERO,
+                Vec3::Y,
+            ),
+            to_camera: cdrf_render::ToCamera::Direction(Vec3::Z),
+        };
+        Self {
+            renderer,
+            mesh,
+            material,
+            view,
+        }
+    }
+
+    /// Uploads the 20 mm icosphere (curvature 1/20 mm⁻¹ everywhere).
+    fn upload_mesh(renderer: &mut cdrf_render::Renderer, subdivisions: u32) -> cdrf_render::MeshId {
+        let sphere = cdrf_core::Mesh::icosphere(20.0, subdivisions);
+        let curvature = vec![1.0 / 20.0; sphere.positions.len()];
+        renderer
+            .create_mesh(
+                &device().device,
+                &cdrf_render::MeshDesc {
+                    mesh: &sphere,
+                    curvature_per_mm: &curvature,
+                },
+            )
+            .unwrap()
+    }
+}
+
 /// The middleware contract: `render` before `prepare` draws nothing and does not panic; a
 /// failed `prepare` draws nothing; a new target gets its own pipeline.
 #[test]
 fn render_before_prepare_and_after_errors_draws_nothing() {
     use cdrf_core::scene::DirectionalLight;
-    use cdrf_render::{
-        Draw, FrameDesc, MaterialDesc, MeshDesc, PrepareError, Renderer, TargetDesc, ToCamera, View,
-    };
+    use cdrf_render::{Draw, FrameDesc, PrepareError, Renderer, TargetDesc};
     let HeadlessDevice { device, queue, .. } = device();
     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
-    let mut renderer = Renderer::new(device, &TargetDesc::new(format), Options::PREDICTABLE);
+    let LambertSphere {
+        mut renderer,
+        mesh,
+        material,
+        view,
+    } = LambertSphere::new(format, 2);
     let draw_into = |renderer: &Renderer, format| -> Vec<u8> {
         let image = record_and_read_back(renderer, format, None, 64, 64);
         image.pixels.into_iter().flatten().collect()
@@ -728,33 +796,6 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
         "render before prepare drew"
     );
 
-    let sphere = cdrf_core::Mesh::icosphere(20.0, 2);
-    let curvature = vec![1.0 / 20.0; sphere.positions.len()];
-    let upload = |renderer: &mut Renderer| {
-        renderer
-            .create_mesh(
-                device,
-                &MeshDesc {
-                    mesh: &sphere,
-                    curvature_per_mm: &curvature,
-                },
-            )
-            .unwrap()
-    };
-    let mesh = upload(&mut renderer);
-    let material = renderer
-        .create_material(device, queue, &MaterialDesc::Lambert { albedo: [0.8; 3] })
-        .unwrap();
-    let view = View {
-        clip_from_world: glam::camera::rh::proj::directx::orthographic(
-            -25.0, 25.0, -25.0, 25.0, 0.0, 100.0,
-        ) * glam::camera::rh::view::look_at_mat4(
-            Vec3::new(0.0, 0.0, 50.0),
-            Vec3::ZERO,
-            Vec3::Y,
-        ),
-        to_camera: ToCamera::Direction(Vec3::Z),
-    };
     let draws = [Draw {
         mesh,
         material,
@@ -766,11 +807,7 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
         exposure: 1.0,
         draws: &draws,
     };
-    static ONE: [DirectionalLight; 1] = [DirectionalLight {
-        to_light: Vec3::NEG_X,
-        irradiance: [1.0; 3],
-    }];
-    renderer.prepare(device, queue, &frame(&ONE)).unwrap();
+    renderer.prepare(device, queue, &frame(&ONE_LIGHT)).unwrap();
     let drawn = lit_bytes(&draw_into(&renderer, format));
     assert!(drawn > 1000, "{drawn} bytes drawn");
 
@@ -789,12 +826,14 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
 
     // A removed mesh: an error naming the draw.
     renderer.remove_mesh(mesh);
-    let error = renderer.prepare(device, queue, &frame(&ONE)).unwrap_err();
+    let error = renderer
+        .prepare(device, queue, &frame(&ONE_LIGHT))
+        .unwrap_err();
     println!("prepare error: {error}");
     assert!(matches!(error, PrepareError::UnknownMesh { index: 0, .. }));
 
     // Another target format: a pipeline of its own, same picture (sRGB encoding either way).
-    let mesh = upload(&mut renderer);
+    let mesh = LambertSphere::upload_mesh(&mut renderer, 2);
     let draws = [Draw {
         mesh,
         material,
@@ -802,7 +841,7 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
     }];
     let frame = FrameDesc {
         view,
-        lights: &ONE,
+        lights: &ONE_LIGHT,
         exposure: 1.0,
         draws: &draws,
     };
@@ -900,35 +939,15 @@ fn perspective_camera_frames_the_sphere() {
 /// cannot render to (an integer colour format, 3 MSAA samples).
 #[test]
 fn prepare_rejects_unusable_input() {
-    use cdrf_core::scene::DirectionalLight;
-    use cdrf_render::{
-        Draw, FrameDesc, MaterialDesc, MeshDesc, PrepareError, Renderer, TargetDesc, ToCamera, View,
-    };
+    use cdrf_render::{Draw, FrameDesc, PrepareError, TargetDesc, ToCamera, View};
     let HeadlessDevice { device, queue, .. } = device();
     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
-    let mut renderer = Renderer::new(device, &TargetDesc::new(format), Options::PREDICTABLE);
-    let sphere = cdrf_core::Mesh::icosphere(20.0, 1);
-    let curvature = vec![1.0 / 20.0; sphere.positions.len()];
-    let mesh = renderer
-        .create_mesh(
-            device,
-            &MeshDesc {
-                mesh: &sphere,
-                curvature_per_mm: &curvature,
-            },
-        )
-        .unwrap();
-    let material = renderer
-        .create_material(device, queue, &MaterialDesc::Lambert { albedo: [0.8; 3] })
-        .unwrap();
-    let lights = [DirectionalLight {
-        to_light: Vec3::NEG_X,
-        irradiance: [1.0; 3],
-    }];
-    let view = View {
-        clip_from_world: glam::Mat4::IDENTITY,
-        to_camera: ToCamera::Direction(Vec3::Z),
-    };
+    let LambertSphere {
+        mut renderer,
+        mesh,
+        material,
+        view,
+    } = LambertSphere::new(format, 1);
     let draw = |world_from_model| {
         [Draw {
             mesh,
@@ -939,7 +958,7 @@ fn prepare_rejects_unusable_input() {
     let ok = draw(glam::Mat4::IDENTITY);
     let frame = |view, exposure, draws| FrameDesc {
         view,
-        lights: &lights,
+        lights: &ONE_LIGHT,
         exposure,
         draws,
     };
