@@ -57,6 +57,19 @@ fn assets(scene: &Scene) -> SceneAssets {
         .unwrap_or_else(|error| panic!("{error}"))
 }
 
+/// The Gaussian CDRF of the bundled fit, with the view correction it shares with the
+/// measured table (`view_correction_from` in `data/wax-fit/gaussian.toml`).
+fn bundled_gaussian() -> Material {
+    let path = data_dir().join("wax-fit/gaussian.toml");
+    let (model, view_correction) = cdrf_core::gaussian_file::read_gaussian(&path)
+        .and_then(|parameters| parameters.load_model(&path))
+        .unwrap_or_else(|error| panic!("{error}"));
+    Material::Gaussian {
+        model,
+        view_correction,
+    }
+}
+
 fn render(scene: &Scene, assets: &SceneAssets) -> RgbaImage {
     let settings = RenderSettings {
         options: Options::PREDICTABLE,
@@ -83,25 +96,13 @@ fn models(scene_file: &str, stem: &str) {
     scene.camera.msaa_samples = 1;
     let mut assets = assets(&scene);
     let measured = assets.material.clone();
-    let Material::Measured(lut) = &measured else {
-        panic!("{scene_file}: the bundled scenes use the measured model");
-    };
-    let gaussian =
-        cdrf_core::gaussian_file::read_gaussian(data_dir().join("wax-fit/gaussian.toml"))
-            .unwrap_or_else(|error| panic!("{error}"));
+    assert!(
+        matches!(measured, Material::Measured(_)),
+        "{scene_file}: the bundled scenes use the measured model"
+    );
     let materials = [
         ("measured", measured.clone()),
-        (
-            "gaussian",
-            Material::Gaussian {
-                model: cdrf_core::gaussian::GaussianCdrf::with_scale(
-                    gaussian.sigma_mm,
-                    gaussian.scale,
-                )
-                .unwrap(),
-                view_correction: lut.view_correction().clone(),
-            },
-        ),
+        ("gaussian", bundled_gaussian()),
         ("lambert", Material::Lambert { albedo: [0.8; 3] }),
         (
             "curvature",
@@ -524,20 +525,11 @@ fn measured_sphere_matches_path_traced() {
     scene.camera.msaa_samples = 4;
     let mut assets = assets(&scene);
     let reference = read_reference("wax-spheres/sphere_r35.exr");
-    let gaussian_parameters =
-        cdrf_core::gaussian_file::read_gaussian(data_dir().join("wax-fit/gaussian.toml"))
-            .unwrap_or_else(|error| panic!("{error}"));
-    let Material::Measured(lut) = &assets.material else {
-        panic!("sphere_r35.toml uses the measured model")
-    };
-    let gaussian = Material::Gaussian {
-        model: cdrf_core::gaussian::GaussianCdrf::with_scale(
-            gaussian_parameters.sigma_mm,
-            gaussian_parameters.scale,
-        )
-        .unwrap(),
-        view_correction: lut.view_correction().clone(),
-    };
+    assert!(
+        matches!(assets.material, Material::Measured(_)),
+        "sphere_r35.toml uses the measured model"
+    );
+    let gaussian = bundled_gaussian();
     let measured_image = render(&scene, &assets);
     assets.material = gaussian;
     let gaussian_image = render(&scene, &assets);
@@ -651,16 +643,7 @@ fn compare_with_cpu_table(image: &RgbaImage, lut: &cdrf_core::CdrfLut, label: &s
 fn analytic_gaussian_matches_tabulated() {
     let scene = golden_scene("sphere_r35.toml", 1);
     let mut assets = assets(&scene);
-    let parameters =
-        cdrf_core::gaussian_file::read_gaussian(data_dir().join("wax-fit/gaussian.toml"))
-            .unwrap_or_else(|error| panic!("{error}"));
-    let (model, view_correction) = parameters
-        .load_model(&data_dir().join("wax-fit/gaussian.toml"))
-        .unwrap_or_else(|error| panic!("{error}"));
-    assets.material = Material::Gaussian {
-        model,
-        view_correction,
-    };
+    assets.material = bundled_gaussian();
     // r = 35 mm: σκ ≈ 0.15 (the terminator quadrature); r = 10 mm: σκ ≈ 0.5 (the Fourier series).
     for radius_mm in [35.0, 10.0] {
         let mut scene = scene.clone();
