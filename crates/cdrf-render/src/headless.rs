@@ -19,6 +19,7 @@ use cdrf_core::image_file::RgbaImage;
 use cdrf_core::scene::{Material, Projection, Scene, SceneAssets, SceneError};
 
 use crate::gpu_data::{block_on, f16_bits_to_f32};
+use crate::offscreen::OffscreenTarget;
 use crate::renderer::{
     Draw, FrameDesc, MaterialDesc, MaterialError, MeshDesc, MeshUploadError, PrepareError,
     Renderer, View,
@@ -28,7 +29,7 @@ use crate::target::{Options, TargetDesc};
 /// The colour format of headless renders.
 pub const HEADLESS_COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// The depth format of headless renders.
-pub const HEADLESS_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub const HEADLESS_DEPTH_FORMAT: wgpu::TextureFormat = crate::offscreen::DEFAULT_DEPTH_FORMAT;
 
 /// Which adapter a [`HeadlessDevice`] uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -310,7 +311,7 @@ pub fn render_scene(
         draws: &draws,
     };
 
-    let targets = Targets::new(&device.device, &target, width, height);
+    let targets = OffscreenTarget::new(&device.device, &target, width, height);
     let render_frame = |renderer: &mut Renderer| -> Result<wgpu::CommandBuffer, HeadlessError> {
         renderer
             .prepare(&device.device, &device.queue, &frame)
@@ -321,7 +322,7 @@ pub fn render_scene(
                 label: Some("cdrf headless frame"),
             });
         {
-            let mut pass = targets.begin_pass(&mut encoder);
+            let mut pass = targets.begin_pass(&mut encoder, wgpu::Color::TRANSPARENT);
             renderer.render(&mut pass);
         }
         Ok(encoder.finish())
@@ -333,7 +334,7 @@ pub fn render_scene(
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("cdrf headless readback"),
         });
-    let readback = targets.copy_to_buffer(&device.device, &mut encoder);
+    let readback = copy_to_buffer(&targets, &device.device, &mut encoder);
     device.queue.submit([commands, encoder.finish()]);
     let image = readback.read(&device.device)?;
 
@@ -384,133 +385,41 @@ fn depth_range(scene: &Scene, assets: &SceneAssets, world_from_model: Mat4) -> (
     }
 }
 
-/// The headless render targets: MSAA colour (when sampled), resolved colour, depth.
-struct Targets {
-    multisampled: Option<wgpu::TextureView>,
-    resolved: wgpu::Texture,
-    resolved_view: wgpu::TextureView,
-    depth: wgpu::TextureView,
-    width: u32,
-    height: u32,
-}
-
-impl Targets {
-    fn new(device: &wgpu::Device, target: &TargetDesc, width: u32, height: u32) -> Self {
-        let texture = |label, format, samples, usage| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: samples,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
-        let attachment = wgpu::TextureUsages::RENDER_ATTACHMENT;
-        let resolved = texture(
-            "cdrf headless colour",
-            target.color_format,
-            1,
-            attachment | wgpu::TextureUsages::COPY_SRC,
-        );
-        let multisampled = (target.sample_count > 1).then(|| {
-            texture(
-                "cdrf headless colour (multisampled)",
-                target.color_format,
-                target.sample_count,
-                attachment,
-            )
-            .create_view(&Default::default())
-        });
-        let depth = texture(
-            "cdrf headless depth",
-            target.depth_format.unwrap_or(HEADLESS_DEPTH_FORMAT),
-            target.sample_count,
-            attachment,
-        )
-        .create_view(&Default::default());
-        Self {
-            multisampled,
-            resolved_view: resolved.create_view(&Default::default()),
-            resolved,
-            depth,
+/// Copies the resolved colour into a buffer to map.
+fn copy_to_buffer(
+    target: &OffscreenTarget,
+    device: &wgpu::Device,
+    encoder: &mut wgpu::CommandEncoder,
+) -> Readback {
+    let (width, height) = target.size();
+    let bytes_per_row = (width * 8).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("cdrf headless readback"),
+        size: u64::from(bytes_per_row) * u64::from(height),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    encoder.copy_texture_to_buffer(
+        target.resolved().as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(bytes_per_row),
+                rows_per_image: Some(height),
+            },
+        },
+        wgpu::Extent3d {
             width,
             height,
-        }
-    }
-
-    /// Begins the frame's pass: colour cleared to transparent black (resolved into the
-    /// single-sampled texture when multisampled), depth cleared to the far plane.
-    fn begin_pass<'e>(&self, encoder: &'e mut wgpu::CommandEncoder) -> wgpu::RenderPass<'e> {
-        let (view, resolve_target) = match &self.multisampled {
-            Some(multisampled) => (multisampled, Some(&self.resolved_view)),
-            None => (&self.resolved_view, None),
-        };
-        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("cdrf headless pass"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &self.depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Discard,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        })
-    }
-
-    fn copy_to_buffer(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-    ) -> Readback {
-        let bytes_per_row = (self.width * 8).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("cdrf headless readback"),
-            size: u64::from(bytes_per_row) * u64::from(self.height),
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        encoder.copy_texture_to_buffer(
-            self.resolved.as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(bytes_per_row),
-                    rows_per_image: Some(self.height),
-                },
-            },
-            wgpu::Extent3d {
-                width: self.width,
-                height: self.height,
-                depth_or_array_layers: 1,
-            },
-        );
-        Readback {
-            buffer,
-            bytes_per_row,
-            width: self.width,
-            height: self.height,
-        }
+            depth_or_array_layers: 1,
+        },
+    );
+    Readback {
+        buffer,
+        bytes_per_row,
+        width,
+        height,
     }
 }
 

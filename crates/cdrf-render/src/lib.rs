@@ -82,9 +82,11 @@
 
 mod gpu_data;
 pub mod headless;
+pub mod offscreen;
 mod renderer;
 mod target;
 
+pub use offscreen::OffscreenTarget;
 pub use renderer::{
     Draw, FrameDesc, MAX_LIGHTS, MaterialDesc, MaterialError, MaterialId, MeshDesc, MeshId,
     MeshUploadError, PrepareError, Renderer, SHADER_SOURCE, ToCamera, View,

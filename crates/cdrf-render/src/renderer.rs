@@ -813,12 +813,24 @@ impl Renderer {
     /// current [`TargetDesc`]). Sets its own pipeline and bind groups 0–2; draws nothing
     /// before a successful [`Renderer::prepare`].
     pub fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
-        if self.prepared.is_empty() {
+        self.render_draws(pass, 0..self.prepared.len());
+    }
+
+    /// Records the prepared draws with indices in `draws` (positions in the last
+    /// [`FrameDesc::draws`]; out-of-range indices are skipped). With it one `prepare` serves
+    /// several passes that share the camera and lights, e.g. the same mesh with two materials
+    /// into two targets. Otherwise as [`Renderer::render`].
+    pub fn render_draws(&self, pass: &mut wgpu::RenderPass<'_>, draws: std::ops::Range<usize>) {
+        let end = draws.end.min(self.prepared.len());
+        let Some(prepared) = self.prepared.get(draws.start.min(end)..end) else {
+            return;
+        };
+        if prepared.is_empty() {
             return;
         }
         pass.set_bind_group(0, &self.frame_bind_group, &[]);
         let mut current: Option<Model> = None;
-        for draw in &self.prepared {
+        for draw in prepared {
             let (Some(mesh), Some(material)) = (
                 self.meshes.get(&draw.mesh),
                 self.materials.get(&draw.material),

@@ -1,0 +1,1012 @@
+//! The viewer's state and its UI: controls on the left, the 3D view in the middle, the
+//! inspector on the right.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use cdrf_core::glam::{Mat3, Mat4, Vec2, Vec3};
+use cdrf_core::scene::DirectionalLight;
+use cdrf_core::{Cdrf, Filter};
+use cdrf_render::{MaterialDesc, MaterialId, MeshDesc, MeshId};
+use egui::{Color32, RichText};
+
+use crate::assets::{Asset, LoadedGaussian, LoadedLut, LoadedMesh, StartupFiles, load_fit_folder};
+use crate::camera::OrbitCamera;
+use crate::gpu::{Layout, ViewCallback, ViewerGpu, slot_size_pixels};
+use crate::panels;
+
+/// A shading model a slot can show.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Model {
+    /// The measured LUT.
+    Measured,
+    /// Kubo's Gaussian CDRF fitted to the same photographs.
+    Gaussian,
+    /// Lambert with the Gaussian's scale as albedo (the κ → 0 limit of the Gaussian fit).
+    Lambert,
+}
+
+impl Model {
+    /// All models, in menu order.
+    pub const ALL: [Model; 3] = [Model::Measured, Model::Gaussian, Model::Lambert];
+
+    /// The name shown in the UI.
+    pub fn label(self) -> &'static str {
+        match self {
+            Model::Measured => "measured CDRF",
+            Model::Gaussian => "Gaussian CDRF",
+            Model::Lambert => "Lambert",
+        }
+    }
+}
+
+/// How the two models share the 3D view.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Compare {
+    /// Two halves, the same camera.
+    SideBySide,
+    /// One view, a draggable line between the models.
+    Split,
+    /// The luminance difference left − right.
+    Difference,
+}
+
+/// Everything the user sets.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// How the models share the view.
+    pub compare: Compare,
+    /// The left (A) and right (B) models.
+    pub models: [Model; 2],
+    /// Show per-vertex curvature instead of shading.
+    pub curvature_view: bool,
+    /// Split line position, fraction of the view width.
+    pub split: f32,
+    /// Radiance difference shown at full colour.
+    pub difference_range: f32,
+    /// Millimetres per mesh unit.
+    pub mm_per_unit: f32,
+    /// Light azimuth, degrees: 0 from the left (the photographs), 90 from the camera side
+    /// (+Z), 180 from the right, −90 from behind.
+    pub light_azimuth_deg: f32,
+    /// Light elevation, degrees (+ from above).
+    pub light_elevation_deg: f32,
+    /// Irradiance E of the light (the radiance unit is E's per steradian).
+    pub irradiance: f32,
+    /// Display exposure multiplier.
+    pub exposure: f32,
+    /// The Gaussian CDRF's σ per RGB channel, mm.
+    pub sigma_mm: [f32; 3],
+    /// Curvature of the radiance plot, mm⁻¹.
+    pub plot_curvature_per_mm: f32,
+    /// The plot follows the curvature under the pointer.
+    pub plot_follows_pointer: bool,
+    /// Repaint continuously (for frame timing).
+    pub continuous: bool,
+}
+
+impl Settings {
+    /// World direction towards the light.
+    pub fn to_light(&self) -> Vec3 {
+        let (sin_az, cos_az) = self.light_azimuth_deg.to_radians().sin_cos();
+        let (sin_el, cos_el) = self.light_elevation_deg.to_radians().sin_cos();
+        Vec3::new(-cos_az * cos_el, sin_el, sin_az * cos_el)
+    }
+
+    /// Sets azimuth and elevation from a direction towards the light.
+    pub fn set_to_light(&mut self, to_light: Vec3) {
+        let d = to_light.normalize_or(Vec3::NEG_X);
+        self.light_elevation_deg = d.y.clamp(-1.0, 1.0).asin().to_degrees();
+        self.light_azimuth_deg = d.z.atan2(-d.x).to_degrees();
+    }
+}
+
+/// The surface point under the pointer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hover {
+    /// Which slot (0 left/A, 1 right/B) the pointer is over.
+    pub slot: usize,
+    /// Mean curvature, mm⁻¹.
+    pub curvature_per_mm: f32,
+    /// Angle between normal and light, radians.
+    pub theta_rad: f32,
+    /// Angle between normal and view, radians.
+    pub phi_rad: f32,
+}
+
+#[derive(Default)]
+struct GpuIds {
+    mesh: Option<MeshId>,
+    measured: Option<MaterialId>,
+    gaussian: Option<MaterialId>,
+    lambert: Option<MaterialId>,
+    curvature: Option<MaterialId>,
+}
+
+/// Recent frame intervals.
+#[derive(Default)]
+struct FrameTimes {
+    seconds: std::collections::VecDeque<f32>,
+}
+
+impl FrameTimes {
+    const WINDOW: usize = 60;
+
+    fn push(&mut self, dt: f32) {
+        if dt.is_finite() && dt > 0.0 {
+            self.seconds.push_back(dt);
+            if self.seconds.len() > Self::WINDOW {
+                self.seconds.pop_front();
+            }
+        }
+    }
+
+    fn mean_ms(&self) -> Option<f32> {
+        (!self.seconds.is_empty())
+            .then(|| 1e3 * self.seconds.iter().sum::<f32>() / self.seconds.len() as f32)
+    }
+}
+
+/// The viewer. Create it with [`ViewerApp::new`] and draw it with [`ViewerApp::show`] every
+/// frame (eframe does both through [`eframe::App`]; tests and the offscreen screenshot call
+/// them directly).
+pub struct ViewerApp {
+    render_state: egui_wgpu::RenderState,
+    settings: Settings,
+    camera: OrbitCamera,
+    mesh: Option<LoadedMesh>,
+    lut: Option<LoadedLut>,
+    gaussian: Option<LoadedGaussian>,
+    ids: GpuIds,
+    hover: Option<Hover>,
+    error: Option<String>,
+    status: Option<String>,
+    lut_image: Option<egui::TextureHandle>,
+    frame_times: FrameTimes,
+    gaussian_table_ms: Option<f64>,
+    dragging_split: bool,
+}
+
+/// Background of the 3D view, linear RGB.
+const BACKGROUND: [f32; 3] = [0.012, 0.012, 0.015];
+
+impl ViewerApp {
+    /// A viewer drawing with `render_state` (its [`ViewerGpu`] is installed there), opened on
+    /// `files`. A file that fails to load leaves its part empty and shows the error.
+    pub fn new(render_state: &egui_wgpu::RenderState, files: &StartupFiles) -> Self {
+        ViewerGpu::install(render_state);
+        let mut settings = Settings {
+            compare: Compare::SideBySide,
+            models: [Model::Measured, Model::Gaussian],
+            curvature_view: false,
+            split: 0.5,
+            difference_range: 0.05,
+            mm_per_unit: files.mm_per_unit,
+            light_azimuth_deg: 0.0,
+            light_elevation_deg: 0.0,
+            irradiance: files.irradiance,
+            exposure: 3.0,
+            sigma_mm: [1.0; 3],
+            plot_curvature_per_mm: 1.0 / 35.0,
+            plot_follows_pointer: true,
+            continuous: false,
+        };
+        settings.set_to_light(files.to_light);
+        let mut app = Self {
+            render_state: render_state.clone(),
+            settings,
+            camera: OrbitCamera::framing(Vec3::ZERO, 50.0),
+            mesh: None,
+            lut: None,
+            gaussian: None,
+            ids: GpuIds::default(),
+            hover: None,
+            error: None,
+            status: None,
+            lut_image: None,
+            frame_times: FrameTimes::default(),
+            gaussian_table_ms: None,
+            dragging_split: false,
+        };
+        let mut errors = Vec::new();
+        match LoadedMesh::load(&files.mesh) {
+            Ok(mesh) => app.set_mesh(mesh, Some(files.mm_per_unit)),
+            Err(error) => errors.push(error.to_string()),
+        }
+        match load_fit_folder(&files.fit_folder) {
+            Ok(asset) => app.apply(asset),
+            Err(error) => errors.push(error.to_string()),
+        }
+        if !errors.is_empty() {
+            app.error = Some(errors.join("\n"));
+        }
+        app.status = None;
+        app
+    }
+
+    /// The current settings.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// Changes settings; GPU state follows on the next [`ViewerApp::show`].
+    pub fn settings_mut(&mut self) -> &mut Settings {
+        &mut self.settings
+    }
+
+    /// The error shown in the UI, if any.
+    pub fn error(&self) -> Option<&str> {
+        self.error.as_deref()
+    }
+
+    /// What is under the pointer, if it is over the mesh.
+    pub fn hover(&self) -> Option<Hover> {
+        self.hover
+    }
+
+    /// Opens a file or fit folder (as the file dialog and drag-and-drop do). Failures are
+    /// shown in the UI; the previous data stays.
+    pub fn open(&mut self, path: &Path) {
+        match Asset::load(path) {
+            Ok(asset) => {
+                self.error = None;
+                self.apply(asset);
+            }
+            Err(error) => self.error = Some(error.to_string()),
+        }
+    }
+
+    fn apply(&mut self, asset: Asset) {
+        match asset {
+            Asset::Mesh(mesh) => self.set_mesh(mesh, None),
+            Asset::Lut(lut) => self.set_lut(lut),
+            Asset::Gaussian(gaussian) => self.set_gaussian(gaussian),
+            Asset::Fit { lut, gaussian } => {
+                if let Some(lut) = lut {
+                    self.set_lut(lut);
+                }
+                if let Some(gaussian) = gaussian {
+                    self.set_gaussian(gaussian);
+                }
+            }
+        }
+    }
+
+    fn with_gpu<R>(&self, f: impl FnOnce(&mut ViewerGpu) -> R) -> Option<R> {
+        let mut renderer = self.render_state.renderer.write();
+        renderer.callback_resources.get_mut::<ViewerGpu>().map(f)
+    }
+
+    fn set_mesh(&mut self, mesh: LoadedMesh, mm_per_unit: Option<f32>) {
+        let device = self.render_state.device.clone();
+        let old = self.ids.mesh.take();
+        let uploaded = self.with_gpu(|gpu| {
+            if let Some(old) = old {
+                gpu.renderer.remove_mesh(old);
+            }
+            gpu.renderer.create_mesh(
+                &device,
+                &MeshDesc {
+                    mesh: &mesh.mesh,
+                    curvature_per_mm: &mesh.curvature_per_unit,
+                },
+            )
+        });
+        match uploaded {
+            Some(Ok(id)) => self.ids.mesh = Some(id),
+            Some(Err(error)) => {
+                self.error = Some(format!("{}: {error}", mesh.path.display()));
+                return;
+            }
+            None => {}
+        }
+        self.settings.mm_per_unit = match mm_per_unit {
+            Some(scale) => scale,
+            None => {
+                let scale = mesh.suggested_mm_per_unit();
+                self.status = Some(format!(
+                    "{}: {scale} mm per unit ({:.0} mm across); change it under Mesh",
+                    file_name(&mesh.path),
+                    mesh.extent.max_element() * scale
+                ));
+                scale
+            }
+        };
+        self.camera = OrbitCamera::framing(
+            mesh.center * self.settings.mm_per_unit,
+            mesh.radius * self.settings.mm_per_unit,
+        );
+        self.mesh = Some(mesh);
+        self.hover = None;
+        self.refresh_curvature_material();
+    }
+
+    fn set_lut(&mut self, lut: LoadedLut) {
+        let (device, queue) = (
+            self.render_state.device.clone(),
+            self.render_state.queue.clone(),
+        );
+        let old = self.ids.measured.take();
+        let created = self.with_gpu(|gpu| {
+            if let Some(old) = old {
+                gpu.renderer.remove_material(old);
+            }
+            gpu.renderer
+                .create_material(&device, &queue, &MaterialDesc::Measured { lut: &lut.lut })
+        });
+        match created {
+            Some(Ok(id)) => self.ids.measured = Some(id),
+            Some(Err(error)) => {
+                self.error = Some(format!("{}: {error}", lut.path.display()));
+                return;
+            }
+            None => {}
+        }
+        self.lut_image = None;
+        self.lut = Some(lut);
+    }
+
+    fn set_gaussian(&mut self, gaussian: LoadedGaussian) {
+        self.settings.sigma_mm = gaussian.parameters.sigma_mm;
+        self.gaussian = Some(gaussian);
+        self.refresh_gaussian_materials();
+    }
+
+    /// Rebuilds the Gaussian table for the current σ and the Lambert material.
+    fn refresh_gaussian_materials(&mut self) {
+        let Some(gaussian) = &self.gaussian else {
+            return;
+        };
+        let model = match gaussian.model_with_sigma(self.settings.sigma_mm) {
+            Ok(model) => model,
+            Err(error) => {
+                self.error = Some(format!("Gaussian CDRF: {error}"));
+                return;
+            }
+        };
+        let albedo = gaussian.parameters.scale;
+        let view_correction = gaussian.view_correction.clone();
+        let (device, queue) = (
+            self.render_state.device.clone(),
+            self.render_state.queue.clone(),
+        );
+        let old = [self.ids.gaussian.take(), self.ids.lambert.take()];
+        let start = Instant::now();
+        let created = self.with_gpu(|gpu| {
+            for id in old.into_iter().flatten() {
+                gpu.renderer.remove_material(id);
+            }
+            let gaussian = gpu.renderer.create_material(
+                &device,
+                &queue,
+                &MaterialDesc::Gaussian {
+                    model: &model,
+                    view_correction: &view_correction,
+                },
+            );
+            let lambert =
+                gpu.renderer
+                    .create_material(&device, &queue, &MaterialDesc::Lambert { albedo });
+            (gaussian, lambert)
+        });
+        self.gaussian_table_ms = Some(start.elapsed().as_secs_f64() * 1e3);
+        if let Some((gaussian, lambert)) = created {
+            match (gaussian, lambert) {
+                (Ok(gaussian), Ok(lambert)) => {
+                    self.ids.gaussian = Some(gaussian);
+                    self.ids.lambert = Some(lambert);
+                }
+                (Err(error), _) | (_, Err(error)) => {
+                    self.error = Some(format!("Gaussian CDRF: {error}"));
+                }
+            }
+        }
+    }
+
+    fn refresh_curvature_material(&mut self) {
+        let Some(mesh) = &self.mesh else {
+            return;
+        };
+        let range_per_mm = mesh.curvature_view_range_per_mm(self.settings.mm_per_unit);
+        let (device, queue) = (
+            self.render_state.device.clone(),
+            self.render_state.queue.clone(),
+        );
+        let old = self.ids.curvature.take();
+        let created = self.with_gpu(|gpu| {
+            if let Some(old) = old {
+                gpu.renderer.remove_material(old);
+            }
+            gpu.renderer
+                .create_material(&device, &queue, &MaterialDesc::Curvature { range_per_mm })
+        });
+        if let Some(Ok(id)) = created {
+            self.ids.curvature = Some(id);
+        }
+    }
+
+    fn material(&self, model: Model) -> Option<MaterialId> {
+        match model {
+            Model::Measured => self.ids.measured,
+            Model::Gaussian => self.ids.gaussian,
+            Model::Lambert => self.ids.lambert,
+        }
+    }
+
+    fn layout(&self) -> Layout {
+        if self.settings.curvature_view {
+            return Layout::Single;
+        }
+        match self.settings.compare {
+            Compare::SideBySide => Layout::SideBySide,
+            Compare::Split => Layout::Split,
+            Compare::Difference => Layout::Difference,
+        }
+    }
+
+    fn world_from_model(&self) -> Mat4 {
+        Mat4::from_scale(Vec3::splat(self.settings.mm_per_unit))
+    }
+
+    /// Draws the whole UI into `ui` (the window's root).
+    pub fn show(&mut self, ui: &mut egui::Ui) {
+        self.frame_times.push(ui.input(|i| i.unstable_dt));
+        self.take_dropped_files(ui);
+
+        egui::Panel::top("cdrf-messages").show(ui, |ui| self.messages_bar(ui));
+        egui::Panel::left("cdrf-controls")
+            .resizable(false)
+            .exact_size(270.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| self.controls(ui));
+            });
+        egui::Panel::right("cdrf-inspector")
+            .resizable(false)
+            .exact_size(330.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| self.inspector(ui));
+            });
+        egui::CentralPanel::default()
+            .frame(egui::Frame::NONE)
+            .show(ui, |ui| self.view_3d(ui));
+
+        if self.settings.continuous {
+            ui.ctx().request_repaint();
+        }
+    }
+
+    fn take_dropped_files(&mut self, ui: &egui::Ui) {
+        let dropped: Vec<PathBuf> = ui.input(|i| {
+            i.raw
+                .dropped_files
+                .iter()
+                .map(|f| f.path().to_owned())
+                .collect()
+        });
+        for path in dropped {
+            self.open(&path);
+        }
+    }
+
+    fn messages_bar(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal(|ui| {
+            ui.heading("cdrf viewer");
+            ui.label(RichText::new("measured vs Gaussian curvature-dependent reflectance").weak());
+        });
+        if let Some(error) = self.error.clone() {
+            ui.horizontal(|ui| {
+                ui.label(RichText::new(format!("⚠ {error}")).color(ui.visuals().error_fg_color));
+                if ui.small_button("dismiss").clicked() {
+                    self.error = None;
+                }
+            });
+        } else if let Some(status) = &self.status {
+            ui.label(RichText::new(status).weak());
+        }
+        ui.add_space(2.0);
+    }
+
+    fn controls(&mut self, ui: &mut egui::Ui) {
+        let before = self.settings.clone();
+        ui.heading("Files");
+        self.file_buttons(ui);
+        ui.label(RichText::new("…or drop files or a fit folder on the window").weak());
+        ui.separator();
+
+        ui.heading("Compare");
+        ui.horizontal(|ui| {
+            let compare = &mut self.settings.compare;
+            ui.selectable_value(compare, Compare::SideBySide, "side by side");
+            ui.selectable_value(compare, Compare::Split, "split");
+            ui.selectable_value(compare, Compare::Difference, "difference");
+        });
+        for (index, side) in ["left", "right"].into_iter().enumerate() {
+            egui::ComboBox::from_label(side)
+                .selected_text(self.settings.models[index].label())
+                .show_ui(ui, |ui| {
+                    for model in Model::ALL {
+                        ui.selectable_value(&mut self.settings.models[index], model, model.label());
+                    }
+                });
+        }
+        if self.settings.compare == Compare::Difference {
+            ui.add(
+                egui::Slider::new(&mut self.settings.difference_range, 0.001..=1.0)
+                    .logarithmic(true)
+                    .text("range (radiance)"),
+            );
+        }
+        ui.checkbox(&mut self.settings.curvature_view, "curvature view (mm⁻¹)");
+        ui.separator();
+
+        ui.heading("Light");
+        let view_rotation = self.view_rotation();
+        let mut to_light = self.settings.to_light();
+        if panels::light_gizmo(ui, &mut to_light, view_rotation) {
+            self.settings.set_to_light(to_light);
+        }
+        ui.add(
+            egui::Slider::new(&mut self.settings.light_azimuth_deg, -180.0..=180.0)
+                .text("azimuth °")
+                .suffix("°"),
+        )
+        .on_hover_text("0° from the left (as photographed), 90° from the camera side, ±180° from the right, −90° from behind");
+        ui.add(
+            egui::Slider::new(&mut self.settings.light_elevation_deg, -90.0..=90.0)
+                .text("elevation")
+                .suffix("°"),
+        );
+        ui.add(egui::Slider::new(&mut self.settings.irradiance, 0.0..=10.0).text("irradiance E"));
+        ui.add(
+            egui::Slider::new(&mut self.settings.exposure, 0.1..=20.0)
+                .logarithmic(true)
+                .text("exposure"),
+        );
+        ui.separator();
+
+        ui.heading("Gaussian CDRF");
+        if self.gaussian.is_some() {
+            ui.horizontal(|ui| {
+                ui.label("σ mm");
+                for (value, channel) in self.settings.sigma_mm.iter_mut().zip(["R", "G", "B"]) {
+                    ui.add(
+                        egui::DragValue::new(value)
+                            .speed(0.01)
+                            .range(0.0..=50.0)
+                            .prefix(format!("{channel} ")),
+                    );
+                }
+            });
+            ui.horizontal(|ui| {
+                if ui.button("reset to fitted").clicked()
+                    && let Some(gaussian) = &self.gaussian
+                {
+                    self.settings.sigma_mm = gaussian.parameters.sigma_mm;
+                }
+                if let Some(ms) = self.gaussian_table_ms {
+                    ui.label(RichText::new(format!("table built in {ms:.0} ms")).weak());
+                }
+            });
+        } else {
+            ui.label("no gaussian.toml loaded");
+        }
+        ui.separator();
+
+        ui.heading("Mesh");
+        ui.add(
+            egui::DragValue::new(&mut self.settings.mm_per_unit)
+                .speed(0.05)
+                .range(1e-3..=1e6)
+                .suffix(" mm per unit"),
+        );
+        if ui.button("reset view").clicked()
+            && let Some(mesh) = &self.mesh
+        {
+            self.camera = OrbitCamera::framing(
+                mesh.center * self.settings.mm_per_unit,
+                mesh.radius * self.settings.mm_per_unit,
+            );
+        }
+
+        self.follow_settings(&before);
+    }
+
+    /// Rebuilds what depends on settings that changed this frame.
+    fn follow_settings(&mut self, before: &Settings) {
+        if self.settings.sigma_mm != before.sigma_mm {
+            self.refresh_gaussian_materials();
+        }
+        if self.settings.mm_per_unit != before.mm_per_unit {
+            // Keep the framing: the camera follows the scale change about the origin.
+            let ratio = self.settings.mm_per_unit / before.mm_per_unit;
+            self.camera.target *= ratio;
+            self.camera.distance_mm *= ratio;
+            self.refresh_curvature_material();
+        }
+    }
+
+    fn file_buttons(&mut self, ui: &mut egui::Ui) {
+        let mut picked: Option<PathBuf> = None;
+        ui.horizontal_wrapped(|ui| {
+            if ui.button("mesh…").clicked() {
+                picked = rfd::FileDialog::new()
+                    .add_filter("mesh", &["obj", "gltf", "glb"])
+                    .pick_file();
+            }
+            if ui.button("LUT…").clicked() {
+                picked = rfd::FileDialog::new()
+                    .add_filter("measured CDRF", &["exr"])
+                    .pick_file();
+            }
+            if ui.button("Gaussian…").clicked() {
+                picked = rfd::FileDialog::new()
+                    .add_filter("Gaussian CDRF", &["toml"])
+                    .pick_file();
+            }
+            if ui.button("fit folder…").clicked() {
+                picked = rfd::FileDialog::new().pick_folder();
+            }
+        });
+        if let Some(path) = picked {
+            self.open(&path);
+        }
+        let name = |path: Option<&Path>| path.map_or("—".to_owned(), file_name);
+        egui::Grid::new("cdrf-files").num_columns(2).show(ui, |ui| {
+            ui.label("mesh");
+            ui.label(name(self.mesh.as_ref().map(|m| m.path.as_path())));
+            ui.end_row();
+            ui.label("LUT");
+            ui.label(name(self.lut.as_ref().map(|l| l.path.as_path())));
+            ui.end_row();
+            ui.label("Gaussian");
+            ui.label(name(self.gaussian.as_ref().map(|g| g.path.as_path())));
+            ui.end_row();
+        });
+    }
+
+    /// Rotation from world to camera space (for the light gizmo).
+    fn view_rotation(&self) -> Mat3 {
+        let forward = (self.camera.target - self.camera.eye()).normalize();
+        let right = forward.cross(Vec3::Y).normalize();
+        let up = right.cross(forward);
+        Mat3::from_cols(right, up, -forward).transpose()
+    }
+
+    fn inspector(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Under the pointer");
+        match self.hover {
+            Some(hover) => {
+                let curvature = hover.curvature_per_mm;
+                egui::Grid::new("cdrf-hover").num_columns(2).show(ui, |ui| {
+                    ui.label("κ");
+                    ui.label(format!("{curvature:.4} mm⁻¹"));
+                    ui.end_row();
+                    ui.label("1/κ");
+                    ui.label(if curvature.abs() > 1e-6 {
+                        format!("{:.1} mm", 1.0 / curvature)
+                    } else {
+                        "flat".to_owned()
+                    });
+                    ui.end_row();
+                    ui.label("θ (normal, light)");
+                    ui.label(format!("{:.1}°", hover.theta_rad.to_degrees()));
+                    ui.end_row();
+                    ui.label("φ (normal, view)");
+                    ui.label(format!("{:.1}°", hover.phi_rad.to_degrees()));
+                    ui.end_row();
+                    if let Some(lut) = &self.lut {
+                        let f = lut.lut.sample(curvature, hover.theta_rad, Filter::Bilinear);
+                        ui.label("f measured");
+                        ui.label(format!("{:.3} {:.3} {:.3}", f.x, f.y, f.z));
+                        ui.end_row();
+                    }
+                    if let Some(model) = self.gaussian_model() {
+                        let f = model.reflectance(curvature, hover.theta_rad);
+                        ui.label("f Gaussian");
+                        ui.label(format!("{:.3} {:.3} {:.3}", f[0], f[1], f[2]));
+                        ui.end_row();
+                    }
+                });
+            }
+            None => {
+                ui.label(RichText::new("hover over the mesh").weak());
+            }
+        }
+        if self.settings.plot_follows_pointer
+            && let Some(hover) = self.hover
+        {
+            self.settings.plot_curvature_per_mm = hover.curvature_per_mm;
+        }
+        ui.separator();
+
+        ui.heading("Measured LUT f(κ, θ)");
+        if let Some(lut) = &self.lut {
+            let texture = self
+                .lut_image
+                .get_or_insert_with(|| panels::lut_texture(ui.ctx(), &lut.lut))
+                .clone();
+            panels::lut_image(ui, &lut.lut, &texture, self.hover);
+        } else {
+            ui.label("no LUT loaded");
+        }
+        ui.separator();
+
+        ui.heading("f(θ) at one curvature");
+        let range = self
+            .lut
+            .as_ref()
+            .map(|lut| {
+                let axis = lut.lut.curvature_axis();
+                (
+                    axis.curvature_per_mm(0),
+                    axis.curvature_per_mm(axis.count - 1),
+                )
+            })
+            .unwrap_or((0.0, 0.2));
+        ui.horizontal(|ui| {
+            ui.add(
+                egui::DragValue::new(&mut self.settings.plot_curvature_per_mm)
+                    .speed(0.001)
+                    .range(0.0..=range.1.max(range.0) * 2.0)
+                    .prefix("κ ")
+                    .suffix(" mm⁻¹"),
+            );
+            ui.checkbox(&mut self.settings.plot_follows_pointer, "follow pointer");
+        });
+        let gaussian = self.gaussian_model();
+        panels::radiance_plot(
+            ui,
+            self.settings.plot_curvature_per_mm,
+            self.lut.as_ref().map(|l| &l.lut),
+            gaussian.as_ref(),
+            self.hover.map(|h| h.theta_rad),
+        );
+        ui.separator();
+
+        ui.heading("Mesh");
+        if let Some(mesh) = &self.mesh {
+            let scale = self.settings.mm_per_unit;
+            let (min, median, max) = mesh.curvature_summary_per_mm(scale);
+            let size = mesh.extent * scale;
+            egui::Grid::new("cdrf-mesh").num_columns(2).show(ui, |ui| {
+                ui.label("vertices");
+                ui.label(mesh.mesh.positions.len().to_string());
+                ui.end_row();
+                ui.label("triangles");
+                ui.label(mesh.mesh.triangles.len().to_string());
+                ui.end_row();
+                ui.label("size");
+                ui.label(format!("{:.1} × {:.1} × {:.1} mm", size.x, size.y, size.z));
+                ui.end_row();
+                ui.label("κ min / median / max");
+                ui.label(format!("{min:.3} / {median:.3} / {max:.3} mm⁻¹"));
+                ui.end_row();
+            });
+        } else {
+            ui.label("no mesh loaded");
+        }
+        ui.separator();
+
+        ui.heading("Frame");
+        if let Some(ms) = self.frame_times.mean_ms() {
+            ui.label(format!(
+                "{ms:.1} ms between frames ({:.0} fps, last {})",
+                1e3 / ms,
+                self.frame_times.seconds.len()
+            ));
+        }
+        ui.checkbox(&mut self.settings.continuous, "repaint continuously")
+            .on_hover_text("frame times mean something only while repainting continuously");
+        let info = self.render_state.adapter.get_info();
+        ui.label(RichText::new(format!("{} ({:?})", info.name, info.backend)).weak());
+    }
+
+    fn gaussian_model(&self) -> Option<cdrf_core::gaussian::GaussianCdrf> {
+        self.gaussian
+            .as_ref()
+            .and_then(|g| g.model_with_sigma(self.settings.sigma_mm).ok())
+    }
+
+    fn view_3d(&mut self, ui: &mut egui::Ui) {
+        let rect = ui.available_rect_before_wrap();
+        let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
+        let layout = self.layout();
+        let pixels_per_point = ui.ctx().pixels_per_point();
+        let size_points = Vec2::new(rect.width(), rect.height());
+        let slot_pixels = slot_size_pixels(layout, size_points, pixels_per_point);
+        let slot_points = Vec2::new(
+            slot_pixels[0] as f32 / pixels_per_point,
+            slot_pixels[1] as f32 / pixels_per_point,
+        );
+        self.interact(ui, &response, rect, layout);
+
+        let (center, radius_mm) = self.bounding_sphere_mm();
+        let view = self
+            .camera
+            .view(slot_pixels[0], slot_pixels[1], center, radius_mm);
+        self.hover = response
+            .hover_pos()
+            .and_then(|pointer| self.pick(pointer, rect, layout, slot_points, view));
+
+        let materials = if self.settings.curvature_view {
+            [self.ids.curvature, None]
+        } else {
+            self.settings.models.map(|model| self.material(model))
+        };
+        let callback = ViewCallback {
+            view,
+            lights: vec![DirectionalLight {
+                to_light: self.settings.to_light(),
+                irradiance: [self.settings.irradiance; 3],
+            }],
+            exposure: self.settings.exposure,
+            mesh: self.ids.mesh,
+            world_from_model: self.world_from_model(),
+            materials,
+            layout,
+            split: self.settings.split,
+            difference_range: self.settings.difference_range,
+            size_points,
+            background: BACKGROUND,
+        };
+        ui.painter()
+            .add(egui_wgpu::Callback::new_paint_callback(rect, callback));
+        if let Some(error) = self.with_gpu(|gpu| gpu.last_error.clone()).flatten() {
+            self.error = Some(format!("rendering: {error}"));
+        }
+        panels::view_overlay(
+            ui,
+            rect,
+            layout,
+            &self.settings,
+            slot_points,
+            &self.missing(),
+        );
+        if self.settings.curvature_view
+            && let Some(mesh) = &self.mesh
+        {
+            let range = mesh.curvature_view_range_per_mm(self.settings.mm_per_unit);
+            panels::curvature_legend(ui, rect, range);
+        }
+    }
+
+    /// Names of models shown but not loaded, per slot.
+    fn missing(&self) -> [Option<&'static str>; 2] {
+        self.settings
+            .models
+            .map(|model| match self.material(model) {
+                Some(_) => None,
+                None if self.mesh.is_none() => Some("no mesh loaded"),
+                None => Some(match model {
+                    Model::Measured => "no LUT loaded",
+                    Model::Gaussian | Model::Lambert => "no gaussian.toml loaded",
+                }),
+            })
+    }
+
+    fn bounding_sphere_mm(&self) -> (Vec3, f32) {
+        match &self.mesh {
+            Some(mesh) => (
+                mesh.center * self.settings.mm_per_unit,
+                mesh.radius * self.settings.mm_per_unit,
+            ),
+            None => (Vec3::ZERO, 50.0),
+        }
+    }
+
+    fn interact(
+        &mut self,
+        ui: &egui::Ui,
+        response: &egui::Response,
+        rect: egui::Rect,
+        layout: Layout,
+    ) {
+        let height = rect.height().max(1.0);
+        if response.drag_started() {
+            let split_x = rect.min.x + self.settings.split * rect.width();
+            self.dragging_split = layout == Layout::Split
+                && response
+                    .interact_pointer_pos()
+                    .is_some_and(|p| (p.x - split_x).abs() < 8.0);
+        }
+        if response.dragged() {
+            let delta = response.drag_delta();
+            if self.dragging_split {
+                if let Some(pointer) = response.interact_pointer_pos() {
+                    self.settings.split =
+                        ((pointer.x - rect.min.x) / rect.width().max(1.0)).clamp(0.0, 1.0);
+                }
+            } else if response.dragged_by(egui::PointerButton::Primary)
+                && !ui.input(|i| i.modifiers.shift)
+            {
+                self.camera.orbit(Vec2::new(delta.x, delta.y) / height);
+            } else {
+                self.camera.pan(Vec2::new(delta.x, delta.y) / height);
+            }
+        }
+        if response.drag_stopped() {
+            self.dragging_split = false;
+        }
+        if response.hovered() {
+            let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+            if scroll != 0.0 {
+                self.camera.zoom((scroll * 0.002).exp());
+            }
+        }
+        if response.double_clicked()
+            && let Some(mesh) = &self.mesh
+        {
+            self.camera = OrbitCamera::framing(
+                mesh.center * self.settings.mm_per_unit,
+                mesh.radius * self.settings.mm_per_unit,
+            );
+        }
+    }
+
+    fn pick(
+        &self,
+        pointer: egui::Pos2,
+        rect: egui::Rect,
+        layout: Layout,
+        slot_points: Vec2,
+        view: cdrf_render::View,
+    ) -> Option<Hover> {
+        let mesh = self.mesh.as_ref()?;
+        let mut local = Vec2::new(pointer.x - rect.min.x, pointer.y - rect.min.y);
+        let mut slot = 0;
+        match layout {
+            Layout::SideBySide if local.x >= slot_points.x => {
+                local.x -= slot_points.x;
+                slot = 1;
+            }
+            Layout::Split if local.x >= self.settings.split * rect.width() => slot = 1,
+            _ => {}
+        }
+        let uv = local / slot_points.max(Vec2::ONE);
+        if !(0.0..=1.0).contains(&uv.x) || !(0.0..=1.0).contains(&uv.y) {
+            return None;
+        }
+        let ndc = Vec2::new(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
+        let (origin, direction) = OrbitCamera::ray(view.clip_from_world, ndc)?;
+        let model_from_world = self.world_from_model().inverse();
+        let origin_model = model_from_world.transform_point3(origin);
+        let direction_model = model_from_world.transform_vector3(direction).normalize();
+        let hit = crate::pick::pick(&mesh.mesh, origin_model, direction_model)?;
+        let normal = hit
+            .interpolate(&mesh.mesh, &mesh.mesh.normals)
+            .normalize_or_zero();
+        let curvature_per_unit = hit.interpolate(&mesh.mesh, &mesh.curvature_per_unit);
+        let point = self
+            .world_from_model()
+            .transform_point3(hit.interpolate(&mesh.mesh, &mesh.mesh.positions));
+        let to_eye = (self.camera.eye() - point).normalize_or_zero();
+        Some(Hover {
+            slot,
+            curvature_per_mm: curvature_per_unit / self.settings.mm_per_unit,
+            theta_rad: normal.dot(self.settings.to_light()).clamp(-1.0, 1.0).acos(),
+            phi_rad: normal.dot(to_eye).clamp(-1.0, 1.0).acos(),
+        })
+    }
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name()
+        .unwrap_or(path.as_os_str())
+        .to_string_lossy()
+        .into_owned()
+}
+
+impl eframe::App for ViewerApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        self.show(ui);
+    }
+}
+
+/// Colour of a model's label.
+pub(crate) fn model_colour(model: Model) -> Color32 {
+    match model {
+        Model::Measured => Color32::from_rgb(255, 190, 120),
+        Model::Gaussian => Color32::from_rgb(150, 200, 255),
+        Model::Lambert => Color32::from_rgb(200, 200, 200),
+    }
+}

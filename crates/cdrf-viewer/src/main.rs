@@ -1,0 +1,381 @@
+//! `cdrf-viewer`: the window (no subcommand), `render` (a scene file to an image, no window)
+//! and `screenshot` (the whole UI, offscreen).
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, bail};
+use cdrf_core::scene::Scene;
+use cdrf_render::Options;
+use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
+use cdrf_viewer::offscreen::OffscreenUi;
+use cdrf_viewer::{Compare, StartupFiles, ViewerApp};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use image::ImageEncoder;
+
+/// Compare the measured and the Gaussian CDRF on a mesh. Without a subcommand: open the
+/// window on the bundled bunny and wax fit.
+#[derive(Parser)]
+#[command(version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    #[command(flatten)]
+    start: StartArgs,
+    /// Window mode only: after this many frames, save a screenshot (--screenshot-to) and
+    /// exit, printing the mean frame interval (the app repaints continuously meanwhile).
+    #[arg(long, value_name = "N")]
+    exit_after_frames: Option<u32>,
+    /// Window mode only: where --exit-after-frames saves the window's screenshot (PNG).
+    #[arg(long, value_name = "PNG", requires = "exit_after_frames")]
+    screenshot_to: Option<PathBuf>,
+}
+
+/// What the viewer opens with (window and screenshot).
+#[derive(Args, Clone)]
+struct StartArgs {
+    /// A scene file whose mesh, scale and light to open (default: data/scenes/bunny.toml).
+    #[arg(long, value_name = "SCENE.toml")]
+    scene: Option<PathBuf>,
+    /// A cdrf-fit output folder with measured.exr and gaussian.toml (default: data/wax-fit).
+    #[arg(long, value_name = "DIR")]
+    fit: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene file to an image without a window (float EXR or sRGB PNG).
+    Render(RenderArgs),
+    /// Render the whole UI offscreen (no display needed) to a PNG.
+    Screenshot(ScreenshotArgs),
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    /// Scene file (format: README, "Scene files").
+    #[arg(long = "scene", value_name = "SCENE.toml")]
+    render_scene: PathBuf,
+    /// Output: .exr (linear float RGBA, alpha = coverage, plus an sRGB preview .png beside
+    /// it) or .png (sRGB only).
+    #[arg(long, value_name = "OUT.exr|OUT.png")]
+    out: PathBuf,
+    /// Render and time this many more frames after a warm-up; report ms per frame.
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    frames: u32,
+    /// Print one JSON object on stdout: adapter, width, height, frames, ms_per_frame, outputs.
+    #[arg(long)]
+    json: bool,
+    /// Insist on a software adapter (lavapipe).
+    #[arg(long)]
+    software: bool,
+}
+
+#[derive(Args)]
+struct ScreenshotArgs {
+    /// Output PNG.
+    #[arg(long, value_name = "OUT.png")]
+    out: PathBuf,
+    /// UI size in points, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1280x720", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Pixels per point (2 for a HiDPI image).
+    #[arg(long, default_value_t = 1.0)]
+    scale: f32,
+    /// How the two models share the view.
+    #[arg(long, value_enum, default_value_t = ViewArg::SideBySide)]
+    view: ViewArg,
+    #[command(flatten)]
+    start: StartArgs,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ViewArg {
+    SideBySide,
+    Split,
+    Difference,
+    Curvature,
+}
+
+fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let (w, h) = text
+        .split_once(['x', 'X', '×'])
+        .ok_or_else(|| format!("{text}: expected WIDTHxHEIGHT, e.g. 1280x720"))?;
+    let parse = |s: &str| {
+        s.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|v| *v > 0)
+            .ok_or_else(|| format!("{text}: width and height must be whole numbers > 0"))
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+fn startup_files(args: &StartArgs) -> anyhow::Result<StartupFiles> {
+    let data = cdrf_viewer::assets::bundled_data_dir();
+    let scene = args
+        .scene
+        .clone()
+        .unwrap_or_else(|| data.join("scenes/bunny.toml"));
+    let fit = args.fit.clone().unwrap_or_else(|| data.join("wax-fit"));
+    StartupFiles::from_scene(&scene, &fit).context(
+        "the viewer's start-up files (set CDRF_DATA to the repository's data folder, or pass --scene and --fit)",
+    )
+}
+
+fn render(args: &RenderArgs) -> anyhow::Result<()> {
+    match args.out.extension().and_then(|e| e.to_str()) {
+        Some("exr" | "png") => {}
+        _ => bail!("{}: --out must end in .exr or .png", args.out.display()),
+    }
+    let scene = Scene::load(&args.render_scene)?;
+    let assets = scene.load_assets()?;
+    let preference = if args.software {
+        AdapterPreference::Software
+    } else {
+        AdapterPreference::Any
+    };
+    let device = HeadlessDevice::new(preference)?;
+    let settings = RenderSettings {
+        options: Options::default(),
+        timed_frames: args.frames,
+        ..RenderSettings::default()
+    };
+    let rendered = render_scene(&device, &scene, &assets, &settings)?;
+    let mut outputs: Vec<&Path> = Vec::new();
+    let png = args.out.with_extension("png");
+    if args.out.extension().is_some_and(|e| e == "exr") {
+        rendered
+            .image
+            .write_exr(&args.out)
+            .with_context(|| format!("writing {}", args.out.display()))?;
+        outputs.push(&args.out);
+    }
+    rendered
+        .image
+        .write_png_srgb(&png)
+        .with_context(|| format!("writing {}", png.display()))?;
+    outputs.push(&png);
+
+    if args.json {
+        let outputs: Vec<String> = outputs.iter().map(|p| p.display().to_string()).collect();
+        let summary = serde_json::json!({
+            "adapter": device.adapter_description(),
+            "width": rendered.image.width,
+            "height": rendered.image.height,
+            "frames": rendered.timed_frames,
+            "ms_per_frame": rendered.ms_per_frame,
+            "outputs": outputs,
+        });
+        println!("{summary}");
+    } else {
+        eprintln!("adapter: {}", device.adapter_description());
+        for output in outputs {
+            eprintln!("wrote {}", output.display());
+        }
+        if let Some(ms) = rendered.ms_per_frame {
+            eprintln!("{ms:.3} ms per frame over {} frames", rendered.timed_frames);
+        }
+    }
+    Ok(())
+}
+
+/// Writes `image` as PNG through a temporary file renamed over `path`.
+fn write_png(image: &image::RgbaImage, path: &Path) -> anyhow::Result<()> {
+    cdrf_core::atomic::write_file(path, |file| {
+        image::codecs::png::PngEncoder::new(std::io::BufWriter::new(file))
+            .write_image(
+                image.as_raw(),
+                image.width(),
+                image.height(),
+                image::ExtendedColorType::Rgba8,
+            )
+            .map_err(std::io::Error::other)
+    })
+    .with_context(|| format!("writing {}", path.display()))
+}
+
+fn apply_view(app: &mut ViewerApp, view: ViewArg) {
+    let settings = app.settings_mut();
+    match view {
+        ViewArg::SideBySide => settings.compare = Compare::SideBySide,
+        ViewArg::Split => settings.compare = Compare::Split,
+        ViewArg::Difference => settings.compare = Compare::Difference,
+        ViewArg::Curvature => settings.curvature_view = true,
+    }
+}
+
+fn screenshot(args: &ScreenshotArgs) -> anyhow::Result<()> {
+    if args.out.extension().is_none_or(|e| e != "png") {
+        bail!("{}: --out must end in .png", args.out.display());
+    }
+    if !(args.scale.is_finite() && args.scale > 0.0) {
+        bail!("--scale {}: must be > 0", args.scale);
+    }
+    let files = startup_files(&args.start)?;
+    let mut offscreen = OffscreenUi::new([args.size.0, args.size.1], args.scale)?;
+    let mut app = ViewerApp::new(offscreen.render_state(), &files);
+    apply_view(&mut app, args.view);
+    let image = offscreen.render(&mut app, 4, Duration::from_millis(16))?;
+    if let Some(error) = app.error() {
+        eprintln!("note: the UI shows an error: {error}");
+    }
+    write_png(&image, &args.out)?;
+    eprintln!(
+        "wrote {} ({} × {} px)",
+        args.out.display(),
+        image.width(),
+        image.height()
+    );
+    Ok(())
+}
+
+/// The window, with the optional scripted screenshot-and-exit.
+struct Window {
+    app: ViewerApp,
+    frames: u32,
+    exit_after_frames: Option<u32>,
+    screenshot_to: Option<PathBuf>,
+    timing_started: Option<(Instant, u32)>,
+    screenshot: Arc<Mutex<Option<Arc<egui::ColorImage>>>>,
+    result: Arc<Mutex<Option<anyhow::Result<()>>>>,
+}
+
+impl eframe::App for Window {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        self.app.show(ui);
+        let Some(exit_after) = self.exit_after_frames else {
+            return;
+        };
+        self.frames += 1;
+        // Frames after the first few (shader compilation, first uploads) are timed.
+        if self.frames == exit_after / 2 {
+            self.timing_started = Some((Instant::now(), self.frames));
+        }
+        let ctx = ui.ctx().clone();
+        let screenshot = lock(&self.screenshot).take();
+        if let Some(image) = screenshot {
+            let outcome = self.save_screenshot(&image);
+            *lock(&self.result) = Some(outcome);
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        } else if self.frames == exit_after {
+            if let Some((start, first)) = self.timing_started {
+                let timed = self.frames - first;
+                let ms = start.elapsed().as_secs_f64() * 1e3 / f64::from(timed.max(1));
+                let size = ctx.content_rect().size() * ctx.pixels_per_point();
+                println!(
+                    "window {:.0} × {:.0} px: {ms:.1} ms per frame over {timed} frames",
+                    size.x, size.y
+                );
+            }
+            if self.screenshot_to.is_some() {
+                let slot = self.screenshot.clone();
+                ctx.request_screenshot(move |image| *lock(&slot) = Some(image));
+            } else {
+                *lock(&self.result) = Some(Ok(()));
+                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            }
+        }
+        ctx.request_repaint();
+    }
+}
+
+fn lock<T>(mutex: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    mutex
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+impl Window {
+    fn save_screenshot(&self, image: &egui::ColorImage) -> anyhow::Result<()> {
+        let Some(path) = &self.screenshot_to else {
+            return Ok(());
+        };
+        let [width, height] = image.size;
+        let bytes: Vec<u8> = image.pixels.iter().flat_map(|c| c.to_array()).collect();
+        let image = image::RgbaImage::from_raw(width as u32, height as u32, bytes)
+            .context("screenshot size mismatch")?;
+        write_png(&image, path)?;
+        eprintln!("wrote {} ({width} × {height} px)", path.display());
+        Ok(())
+    }
+}
+
+const NO_DISPLAY_HELP: &str = "\
+no display: neither DISPLAY nor WAYLAND_DISPLAY is set, so the viewer cannot open a window.
+Without a display, use the headless commands:
+  cdrf-viewer render --scene data/scenes/bunny.toml --out out/bunny.exr   # one model, float EXR
+  cdrf-viewer screenshot --out out/viewer.png                             # the whole UI, offscreen
+or run the window under a virtual X server:
+  xvfb-run -a -s \"-screen 0 1280x800x24\" cargo run --release -p cdrf-viewer";
+
+fn window(cli: &Cli) -> anyhow::Result<()> {
+    if cfg!(all(unix, not(target_os = "macos")))
+        && std::env::var_os("DISPLAY").is_none()
+        && std::env::var_os("WAYLAND_DISPLAY").is_none()
+    {
+        bail!(NO_DISPLAY_HELP);
+    }
+    let files = startup_files(&cli.start)?;
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title("cdrf viewer")
+            .with_inner_size([1280.0, 720.0])
+            .with_min_inner_size([640.0, 400.0])
+            .with_drag_and_drop(true),
+        ..Default::default()
+    };
+    let result = Arc::new(Mutex::new(None));
+    let shared = result.clone();
+    let (exit_after_frames, screenshot_to) = (cli.exit_after_frames, cli.screenshot_to.clone());
+    eframe::run_native(
+        "cdrf viewer",
+        options,
+        Box::new(move |cc| {
+            let render_state = cc
+                .wgpu_render_state
+                .as_ref()
+                .ok_or("eframe started without its wgpu renderer")?;
+            let mut app = ViewerApp::new(render_state, &files);
+            if exit_after_frames.is_some() {
+                app.settings_mut().continuous = true;
+            }
+            Ok(Box::new(Window {
+                app,
+                frames: 0,
+                exit_after_frames,
+                screenshot_to,
+                timing_started: None,
+                screenshot: Arc::new(Mutex::new(None)),
+                result: shared,
+            }))
+        }),
+    )
+    .map_err(|error| anyhow::anyhow!("{error}\n\n{NO_DISPLAY_HELP}"))?;
+    let outcome = lock(&result).take();
+    match (outcome, cli.exit_after_frames) {
+        (Some(outcome), _) => outcome,
+        (None, Some(frames)) => bail!("the window closed before {frames} frames were shown"),
+        (None, None) => Ok(()),
+    }
+}
+
+fn run() -> anyhow::Result<()> {
+    let cli = Cli::parse();
+    match &cli.command {
+        Some(Command::Render(args)) => render(args),
+        Some(Command::Screenshot(args)) => screenshot(args),
+        None => window(&cli),
+    }
+}
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("error: {error:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
