@@ -83,6 +83,9 @@ pub struct Settings {
     pub plot_follows_pointer: bool,
     /// Repaint continuously (for frame timing).
     pub continuous: bool,
+    /// Show wall-clock timings (frame interval, Gaussian table build). Snapshot tests turn
+    /// them off: they differ from run to run.
+    pub show_timings: bool,
 }
 
 impl Settings {
@@ -165,10 +168,20 @@ pub struct ViewerApp {
     frame_times: FrameTimes,
     gaussian_table_ms: Option<f64>,
     dragging_split: bool,
+    frame_on_next_view: bool,
+    /// The settings the GPU state was last built for.
+    applied: Applied,
+}
+
+/// Settings whose change needs GPU work.
+#[derive(Default)]
+struct Applied {
+    sigma_mm: [f32; 3],
+    mm_per_unit: f32,
 }
 
 /// Background of the 3D view, linear RGB.
-const BACKGROUND: [f32; 3] = [0.012, 0.012, 0.015];
+pub const BACKGROUND: [f32; 3] = [0.012, 0.012, 0.015];
 
 impl ViewerApp {
     /// A viewer drawing with `render_state` (its [`ViewerGpu`] is installed there), opened on
@@ -190,12 +203,13 @@ impl ViewerApp {
             plot_curvature_per_mm: 1.0 / 35.0,
             plot_follows_pointer: true,
             continuous: false,
+            show_timings: true,
         };
         settings.set_to_light(files.to_light);
         let mut app = Self {
             render_state: render_state.clone(),
             settings,
-            camera: OrbitCamera::framing(Vec3::ZERO, 50.0),
+            camera: OrbitCamera::framing(Vec3::ZERO, 50.0, 1.0),
             mesh: None,
             lut: None,
             gaussian: None,
@@ -207,6 +221,8 @@ impl ViewerApp {
             frame_times: FrameTimes::default(),
             gaussian_table_ms: None,
             dragging_split: false,
+            frame_on_next_view: true,
+            applied: Applied::default(),
         };
         let mut errors = Vec::new();
         match LoadedMesh::load(&files.mesh) {
@@ -312,10 +328,8 @@ impl ViewerApp {
                 scale
             }
         };
-        self.camera = OrbitCamera::framing(
-            mesh.center * self.settings.mm_per_unit,
-            mesh.radius * self.settings.mm_per_unit,
-        );
+        self.applied.mm_per_unit = self.settings.mm_per_unit;
+        self.frame_on_next_view = true;
         self.mesh = Some(mesh);
         self.hover = None;
         self.refresh_curvature_material();
@@ -371,6 +385,7 @@ impl ViewerApp {
             self.render_state.queue.clone(),
         );
         let old = [self.ids.gaussian.take(), self.ids.lambert.take()];
+        self.applied.sigma_mm = self.settings.sigma_mm;
         let start = Instant::now();
         let created = self.with_gpu(|gpu| {
             for id in old.into_iter().flatten() {
@@ -452,6 +467,7 @@ impl ViewerApp {
     pub fn show(&mut self, ui: &mut egui::Ui) {
         self.frame_times.push(ui.input(|i| i.unstable_dt));
         self.take_dropped_files(ui);
+        self.follow_settings();
 
         egui::Panel::top("cdrf-messages").show(ui, |ui| self.messages_bar(ui));
         egui::Panel::left("cdrf-controls")
@@ -495,7 +511,9 @@ impl ViewerApp {
         });
         if let Some(error) = self.error.clone() {
             ui.horizontal(|ui| {
-                ui.label(RichText::new(format!("⚠ {error}")).color(ui.visuals().error_fg_color));
+                ui.label(
+                    RichText::new(format!("Error: {error}")).color(ui.visuals().error_fg_color),
+                );
                 if ui.small_button("dismiss").clicked() {
                     self.error = None;
                 }
@@ -507,7 +525,6 @@ impl ViewerApp {
     }
 
     fn controls(&mut self, ui: &mut egui::Ui) {
-        let before = self.settings.clone();
         ui.heading("Files");
         self.file_buttons(ui);
         ui.label(RichText::new("…or drop files or a fit folder on the window").weak());
@@ -536,7 +553,7 @@ impl ViewerApp {
                     .text("range (radiance)"),
             );
         }
-        ui.checkbox(&mut self.settings.curvature_view, "curvature view (mm⁻¹)");
+        ui.checkbox(&mut self.settings.curvature_view, "curvature view (/mm)");
         ui.separator();
 
         ui.heading("Light");
@@ -583,7 +600,10 @@ impl ViewerApp {
                 {
                     self.settings.sigma_mm = gaussian.parameters.sigma_mm;
                 }
-                if let Some(ms) = self.gaussian_table_ms {
+                if let Some(ms) = self
+                    .gaussian_table_ms
+                    .filter(|_| self.settings.show_timings)
+                {
                     ui.label(RichText::new(format!("table built in {ms:.0} ms")).weak());
                 }
             });
@@ -599,30 +619,26 @@ impl ViewerApp {
                 .range(1e-3..=1e6)
                 .suffix(" mm per unit"),
         );
-        if ui.button("reset view").clicked()
-            && let Some(mesh) = &self.mesh
-        {
-            self.camera = OrbitCamera::framing(
-                mesh.center * self.settings.mm_per_unit,
-                mesh.radius * self.settings.mm_per_unit,
-            );
+        if ui.button("reset view").clicked() {
+            self.frame_on_next_view = true;
         }
-
-        self.follow_settings(&before);
     }
 
-    /// Rebuilds what depends on settings that changed this frame.
-    fn follow_settings(&mut self, before: &Settings) {
-        if self.settings.sigma_mm != before.sigma_mm {
+    /// Rebuilds what depends on settings changed since the last frame (by the UI or through
+    /// [`ViewerApp::settings_mut`]).
+    fn follow_settings(&mut self) {
+        if self.settings.sigma_mm != self.applied.sigma_mm {
             self.refresh_gaussian_materials();
         }
-        if self.settings.mm_per_unit != before.mm_per_unit {
+        let (scale, applied_scale) = (self.settings.mm_per_unit, self.applied.mm_per_unit);
+        if scale != applied_scale && scale > 0.0 && applied_scale > 0.0 {
             // Keep the framing: the camera follows the scale change about the origin.
-            let ratio = self.settings.mm_per_unit / before.mm_per_unit;
+            let ratio = scale / applied_scale;
             self.camera.target *= ratio;
             self.camera.distance_mm *= ratio;
             self.refresh_curvature_material();
         }
+        self.applied.mm_per_unit = scale;
     }
 
     fn file_buttons(&mut self, ui: &mut egui::Ui) {
@@ -679,7 +695,7 @@ impl ViewerApp {
                 let curvature = hover.curvature_per_mm;
                 egui::Grid::new("cdrf-hover").num_columns(2).show(ui, |ui| {
                     ui.label("κ");
-                    ui.label(format!("{curvature:.4} mm⁻¹"));
+                    ui.label(format!("{curvature:.4} /mm"));
                     ui.end_row();
                     ui.label("1/κ");
                     ui.label(if curvature.abs() > 1e-6 {
@@ -749,7 +765,7 @@ impl ViewerApp {
                     .speed(0.001)
                     .range(0.0..=range.1.max(range.0) * 2.0)
                     .prefix("κ ")
-                    .suffix(" mm⁻¹"),
+                    .suffix(" /mm"),
             );
             ui.checkbox(&mut self.settings.plot_follows_pointer, "follow pointer");
         });
@@ -779,7 +795,7 @@ impl ViewerApp {
                 ui.label(format!("{:.1} × {:.1} × {:.1} mm", size.x, size.y, size.z));
                 ui.end_row();
                 ui.label("κ min / median / max");
-                ui.label(format!("{min:.3} / {median:.3} / {max:.3} mm⁻¹"));
+                ui.label(format!("{min:.3} / {median:.3} / {max:.3} /mm"));
                 ui.end_row();
             });
         } else {
@@ -788,7 +804,11 @@ impl ViewerApp {
         ui.separator();
 
         ui.heading("Frame");
-        if let Some(ms) = self.frame_times.mean_ms() {
+        if let Some(ms) = self
+            .frame_times
+            .mean_ms()
+            .filter(|_| self.settings.show_timings)
+        {
             ui.label(format!(
                 "{ms:.1} ms between frames ({:.0} fps, last {})",
                 1e3 / ms,
@@ -821,6 +841,10 @@ impl ViewerApp {
         self.interact(ui, &response, rect, layout);
 
         let (center, radius_mm) = self.bounding_sphere_mm();
+        if std::mem::take(&mut self.frame_on_next_view) {
+            let aspect = slot_pixels[0] as f32 / slot_pixels[1] as f32;
+            self.camera = OrbitCamera::framing(center, radius_mm, aspect);
+        }
         let view = self
             .camera
             .view(slot_pixels[0], slot_pixels[1], center, radius_mm);
@@ -933,13 +957,8 @@ impl ViewerApp {
                 self.camera.zoom((scroll * 0.002).exp());
             }
         }
-        if response.double_clicked()
-            && let Some(mesh) = &self.mesh
-        {
-            self.camera = OrbitCamera::framing(
-                mesh.center * self.settings.mm_per_unit,
-                mesh.radius * self.settings.mm_per_unit,
-            );
+        if response.double_clicked() {
+            self.frame_on_next_view = true;
         }
     }
 

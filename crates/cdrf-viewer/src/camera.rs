@@ -23,13 +23,21 @@ pub struct OrbitCamera {
 const PITCH_LIMIT_RAD: f32 = 89.0 * std::f32::consts::PI / 180.0;
 
 impl OrbitCamera {
-    /// A camera on +Z that frames a sphere of `radius_mm` around `center` (the photographs'
-    /// view: light from the left is `to_light = −X`).
-    pub fn framing(center: Vec3, radius_mm: f32) -> Self {
-        let half_fov = (VERTICAL_FOV_DEG * 0.5).to_radians();
+    /// A camera on +Z that frames a sphere of `radius_mm` around `center` in a view of
+    /// `aspect` (width / height) — the photographs' view: light from the left is
+    /// `to_light = −X`.
+    pub fn framing(center: Vec3, radius_mm: f32, aspect: f32) -> Self {
+        let tan_half_vertical = (VERTICAL_FOV_DEG * 0.5).to_radians().tan();
+        let aspect = if aspect.is_finite() && aspect > 0.0 {
+            aspect
+        } else {
+            1.0
+        };
+        // The narrower of the two half-angles must hold the sphere.
+        let half_fov = (tan_half_vertical * aspect.min(1.0)).atan();
         Self {
             target: center,
-            distance_mm: radius_mm.max(1e-3) * 1.15 / half_fov.sin(),
+            distance_mm: radius_mm.max(1e-3) * 1.1 / half_fov.sin(),
             yaw_rad: 0.0,
             pitch_rad: 0.0,
         }
@@ -115,8 +123,8 @@ mod tests {
 
     #[test]
     fn framing_puts_the_whole_sphere_in_view_and_the_centre_ray_through_it() {
-        let camera = OrbitCamera::framing(Vec3::new(1.0, 2.0, 3.0), 50.0);
-        let view = camera.view(400, 300, Vec3::new(1.0, 2.0, 3.0), 50.0);
+        let camera = OrbitCamera::framing(Vec3::new(1.0, 2.0, 3.0), 50.0, 0.5);
+        let view = camera.view(200, 400, Vec3::new(1.0, 2.0, 3.0), 50.0);
         // The sphere's top and side points project inside the view.
         for offset in [Vec3::Y * 50.0, Vec3::X * 50.0, -Vec3::Y * 50.0] {
             let clip = view
@@ -135,7 +143,7 @@ mod tests {
 
     #[test]
     fn orbit_keeps_the_distance_and_clamps_the_pitch() {
-        let mut camera = OrbitCamera::framing(Vec3::ZERO, 10.0);
+        let mut camera = OrbitCamera::framing(Vec3::ZERO, 10.0, 1.0);
         let distance = camera.eye().length();
         camera.orbit(Vec2::new(0.3, 5.0));
         assert!((camera.eye().length() - distance).abs() < 1e-3 * distance);

@@ -7,7 +7,7 @@ use cdrf_core::glam::{Mat3, Vec2 as GlamVec2, Vec3};
 use cdrf_core::image_file::linear_to_srgb;
 use cdrf_core::{Cdrf, CdrfLut, Filter};
 use egui::{Color32, Pos2, Rect, Stroke, Vec2};
-use egui_plot::{Legend, Line, LineStyle, Plot, PlotPoints, VLine};
+use egui_plot::{Line, LineStyle, Plot, PlotPoints, VLine};
 
 use crate::app::{Hover, Settings, model_colour};
 use crate::gpu::Layout;
@@ -134,7 +134,7 @@ pub fn lut_image(
     ui.horizontal(|ui| {
         ui.label(
             egui::RichText::new(format!(
-                "θ 0…180° across; κ {:.4}…{:.4} mm⁻¹ (r {:.0}…{:.0} mm) down",
+                "θ 0…180° across; κ {:.4}…{:.4} /mm (r {:.0}…{:.0} mm) down",
                 axis.curvature_per_mm(0),
                 axis.curvature_per_mm(axis.count - 1),
                 1.0 / axis.curvature_per_mm(0),
@@ -165,7 +165,6 @@ pub fn radiance_plot(
     ];
     Plot::new("cdrf-radiance-plot")
         .height(170.0)
-        .legend(Legend::default())
         .x_axis_label("θ (°)")
         .y_axis_label("f = πL/E")
         .default_x_bounds(0.0, 180.0)
@@ -207,7 +206,7 @@ pub fn radiance_plot(
             }
         });
     ui.label(
-        egui::RichText::new("solid: measured; dashed: Gaussian; curves without g(θ, φ)")
+        egui::RichText::new("solid: measured, dashed: Gaussian; R, G, B channels; without g(θ, φ)")
             .small()
             .weak(),
     );
@@ -390,7 +389,7 @@ pub fn curvature_legend(ui: &egui::Ui, rect: Rect, range_per_mm: [f32; 2]) {
     painter.text(
         Pos2::new(bar.center().x, below),
         egui::Align2::CENTER_TOP,
-        format!("{:.3} mm⁻¹", 0.5 * (low + high)),
+        format!("{:.3} /mm", 0.5 * (low + high)),
         font.clone(),
         Color32::WHITE,
     );
