@@ -2,8 +2,9 @@
 # The whole test suite, exactly as CI runs it (.ci/run calls this script).
 #
 # On a fresh Debian/Ubuntu machine it first installs what is missing — Mesa's software Vulkan
-# driver (lavapipe) for the GPU tests, a C++ compiler for crates that build C++ — using sudo only
-# when not root. Then: format check, clippy with warnings as errors, every test (unit,
+# driver (lavapipe) for the GPU tests, a virtual X server (xvfb, xauth) and the X libraries winit
+# loads for the viewer's windowed test, a C++ compiler for crates that build C++ — using sudo
+# only when not root. Then: format check, clippy with warnings as errors, every test (unit,
 # integration, CLI, doc tests), and the docs build.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -19,6 +20,13 @@ missing=()
 ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1' || missing+=(libvulkan1)
 compgen -G '/usr/share/vulkan/icd.d/lvp_icd*.json' >/dev/null || missing+=(mesa-vulkan-drivers)
 command -v g++ >/dev/null 2>&1 || missing+=(g++)
+command -v xvfb-run >/dev/null 2>&1 || missing+=(xvfb)
+command -v xauth >/dev/null 2>&1 || missing+=(xauth)
+# What winit opens at run time for an X11 window.
+for lib in libX11.so.6:libx11-6 libX11-xcb.so.1:libx11-xcb1 libXcursor.so.1:libxcursor1 \
+  libXrandr.so.2:libxrandr2 libXi.so.6:libxi6 libxkbcommon-x11.so.0:libxkbcommon-x11-0; do
+  ldconfig -p 2>/dev/null | grep -q "${lib%%:*}" || missing+=("${lib##*:}")
+done
 if ((${#missing[@]})); then
   section "installing ${missing[*]}"
   sudo=()

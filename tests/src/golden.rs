@@ -343,7 +343,7 @@ pub fn assert_golden_in(
         panic!(
             "golden `{name}` ({caller}): reference {} is missing (a missing reference is a \
              failure).\n  wrote the rendered image to {}\n  inspect it, then create the reference \
-             with `{UPDATE_ENV}=1 cargo test -p cdrf-tests` (or rename the .new.png to {name}.png) \
+             with `{UPDATE_ENV}=1 cargo test --workspace` (or rename the .new.png to {name}.png) \
              and commit it",
             reference_path.display(),
             new_path.display()

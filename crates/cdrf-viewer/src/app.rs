@@ -193,7 +193,7 @@ impl ViewerApp {
             models: [Model::Measured, Model::Gaussian],
             curvature_view: false,
             split: 0.5,
-            difference_range: 0.05,
+            difference_range: 0.2,
             mm_per_unit: files.mm_per_unit,
             light_azimuth_deg: 0.0,
             light_elevation_deg: 0.0,

@@ -143,6 +143,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<()> {
         ..RenderSettings::default()
     };
     let rendered = render_scene(&device, &scene, &assets, &settings)?;
+    create_parent(&args.out)?;
     let mut outputs: Vec<&Path> = Vec::new();
     let png = args.out.with_extension("png");
     if args.out.extension().is_some_and(|e| e == "exr") {
@@ -179,6 +180,15 @@ fn render(args: &RenderArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// Creates the folder `path` is to be written in.
+fn create_parent(path: &Path) -> anyhow::Result<()> {
+    match path.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => std::fs::create_dir_all(parent)
+            .with_context(|| format!("creating the folder {}", parent.display())),
+        _ => Ok(()),
+    }
 }
 
 /// Writes `image` as PNG through a temporary file renamed over `path`.
@@ -296,6 +306,7 @@ impl Window {
         let bytes: Vec<u8> = image.pixels.iter().flat_map(|c| c.to_array()).collect();
         let image = image::RgbaImage::from_raw(width as u32, height as u32, bytes)
             .context("screenshot size mismatch")?;
+        create_parent(path)?;
         write_png(&image, path)?;
         eprintln!("wrote {} ({width} × {height} px)", path.display());
         Ok(())
