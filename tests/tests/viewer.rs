@@ -281,3 +281,35 @@ fn a_window_narrower_than_its_panels_and_a_zero_sized_one_do_not_crash() {
     harness.run_steps(2);
     assert!(object_bounds(&render(&mut harness), 1.0).is_some());
 }
+
+#[test]
+fn dropping_a_mesh_and_a_fit_folder_loads_them() {
+    let mut harness = harness();
+    let sphere = data_dir().join("sphere/unit_sphere.obj");
+    harness
+        .input_mut()
+        .dropped_files
+        .push(Arc::new(Dropped(sphere)));
+    harness.run_steps(2);
+    assert_eq!(harness.state().error(), None);
+    // A unit sphere is 2 units across: 50 mm per unit makes it 100 mm (r = 50 mm).
+    assert_eq!(harness.state().settings().mm_per_unit, 50.0);
+    harness.get_by_label_contains("unit_sphere.obj: 50 mm per unit");
+    harness.get_by_label("2562");
+
+    harness
+        .input_mut()
+        .dropped_files
+        .push(Arc::new(Dropped(data_dir().join("wax-fit"))));
+    harness.run_steps(2);
+    assert_eq!(harness.state().error(), None);
+    let image = render(&mut harness);
+    let middle = ((VIEW_X[0] + VIEW_X[1]) / 2.0) as u32;
+    let [x0, y0, x1, y1] = object_bounds_in(&image, VIEW_X[0] as u32..middle, VIEW_TOP as u32)
+        .expect("the sphere is drawn");
+    println!("sphere bounds {:?}", [x0, y0, x1, y1]);
+    // Lit from the left, the bright part is the left half of the disk: half as wide as tall
+    // (a perspective camera framing the sphere keeps it round).
+    let (width, height) = (x1 - x0, y1 - y0);
+    assert!((2 * width).abs_diff(height) <= height / 25, "{:?}", [x0, y0, x1, y1]);
+}

@@ -276,21 +276,24 @@ impl CallbackTrait for ViewCallback {
         let slot_size = slot_size_pixels(self.layout, self.size_points, pixels_per_point);
         gpu.ensure_slots(device, slot_size);
 
-        let slot_count = self.layout.slot_count();
-        let draws: Vec<Draw> = match self.mesh {
-            Some(mesh) => self.materials[..slot_count]
+        // One draw per slot that has a mesh and a material; a slot without stays empty.
+        let mut draws = Vec::with_capacity(2);
+        let mut slot_draw = [None; 2];
+        if let Some(mesh) = self.mesh {
+            for (slot, material) in self.materials[..self.layout.slot_count()]
                 .iter()
-                .map(|material| {
-                    material.map(|material| Draw {
+                .enumerate()
+            {
+                if let Some(material) = *material {
+                    slot_draw[slot] = Some(draws.len());
+                    draws.push(Draw {
                         mesh,
                         material,
                         world_from_model: self.world_from_model,
-                    })
-                })
-                .collect::<Option<Vec<_>>>()
-                .unwrap_or_default(),
-            None => Vec::new(),
-        };
+                    });
+                }
+            }
+        }
         let frame = FrameDesc {
             view: self.view,
             lights: &self.lights,
@@ -301,10 +304,10 @@ impl CallbackTrait for ViewCallback {
         gpu.last_error = prepared.as_ref().err().map(ToString::to_string);
 
         if let Some(slots) = &gpu.slots {
-            for (index, target) in slots.targets.iter().enumerate() {
+            for (target, draw) in slots.targets.iter().zip(slot_draw) {
                 let mut pass = target.begin_pass(egui_encoder, wgpu::Color::TRANSPARENT);
-                if prepared.is_ok() {
-                    gpu.renderer.render_draws(&mut pass, index..index + 1);
+                if let (Ok(()), Some(draw)) = (&prepared, draw) {
+                    gpu.renderer.render_draws(&mut pass, draw..draw + 1);
                 }
             }
         }

@@ -226,6 +226,8 @@ fn screenshot(args: &ScreenshotArgs) -> anyhow::Result<()> {
     let files = startup_files(&args.start)?;
     let mut offscreen = OffscreenUi::new([args.size.0, args.size.1], args.scale)?;
     let mut app = ViewerApp::new(offscreen.render_state(), &files);
+    // Offscreen frames are not display frames: their intervals and build times mean nothing.
+    app.settings_mut().show_timings = false;
     apply_view(&mut app, args.view);
     let image = offscreen.render(&mut app, 4, Duration::from_millis(16))?;
     if let Some(error) = app.error() {
