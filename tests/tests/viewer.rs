@@ -311,5 +311,9 @@ fn dropping_a_mesh_and_a_fit_folder_loads_them() {
     // Lit from the left, the bright part is the left half of the disk: half as wide as tall
     // (a perspective camera framing the sphere keeps it round).
     let (width, height) = (x1 - x0, y1 - y0);
-    assert!((2 * width).abs_diff(height) <= height / 25, "{:?}", [x0, y0, x1, y1]);
+    assert!(
+        (2 * width).abs_diff(height) <= height / 25,
+        "{:?}",
+        [x0, y0, x1, y1]
+    );
 }
