@@ -8,10 +8,12 @@
 //! - [`assets`]: loading meshes, LUTs, Gaussian parameters and fit folders.
 //! - [`camera`], [`pick`]: the orbit camera and the CPU ray cast behind the (κ, θ) read-out.
 //! - [`panels`]: the light gizmo, LUT image, radiance plot and legends.
+//! - [`compare`]: the three models against path-traced references (the `compare` command).
 
 pub mod app;
 pub mod assets;
 pub mod camera;
+pub mod compare;
 pub mod gpu;
 pub mod offscreen;
 pub mod panels;

@@ -50,6 +50,31 @@ enum Command {
     Render(RenderArgs),
     /// Render the whole UI offscreen (no display needed) to a PNG.
     Screenshot(ScreenshotArgs),
+    /// Compare measured CDRF, Gaussian CDRF and Lambert with path-traced references: JSON,
+    /// Markdown and a figure per case.
+    Compare(CompareArgs),
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    /// Cases: `[[case]] name, scene, reference` (default: data/compare.toml).
+    #[arg(long, value_name = "TOML")]
+    cases: Option<PathBuf>,
+    /// cdrf-fit output folder with measured.exr and gaussian.toml (default: data/wax-fit).
+    #[arg(long, value_name = "DIR")]
+    fit: Option<PathBuf>,
+    /// Output folder for compare.json, compare.md and one figure per case.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Compare at SIZE × SIZE pixels (must divide the references' size; default: theirs).
+    #[arg(long, value_name = "PX")]
+    size: Option<u32>,
+    /// Only the named case (repeatable).
+    #[arg(long = "case", value_name = "NAME")]
+    only: Vec<String>,
+    /// Insist on a software adapter (lavapipe).
+    #[arg(long)]
+    software: bool,
 }
 
 #[derive(Args)]
@@ -243,6 +268,44 @@ fn screenshot(args: &ScreenshotArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+fn compare(args: &CompareArgs) -> anyhow::Result<()> {
+    use cdrf_viewer::compare::{Models, markdown, read_manifest, run_case, write_outputs};
+    let data = cdrf_viewer::assets::bundled_data_dir();
+    let cases_path = args
+        .cases
+        .clone()
+        .unwrap_or_else(|| data.join("compare.toml"));
+    let fit = args.fit.clone().unwrap_or_else(|| data.join("wax-fit"));
+    let mut cases = read_manifest(&cases_path)?;
+    if !args.only.is_empty() {
+        for name in &args.only {
+            if !cases.iter().any(|case| &case.name == name) {
+                bail!("{}: no case named {name}", cases_path.display());
+            }
+        }
+        cases.retain(|case| args.only.contains(&case.name));
+    }
+    let models = Models::from_fit_folder(&fit)?;
+    let preference = if args.software {
+        AdapterPreference::Software
+    } else {
+        AdapterPreference::Any
+    };
+    let device = HeadlessDevice::new(preference)?;
+    eprintln!("adapter: {}", device.adapter_description());
+    let mut results = Vec::new();
+    for case in &cases {
+        eprintln!("case {}: rendering and comparing", case.name);
+        results.push(run_case(&device, case, &models, args.size)?);
+    }
+    let written = write_outputs(&results, &args.out)?;
+    println!("{}", markdown(&results));
+    for path in written {
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
 /// The window, with the optional scripted screenshot-and-exit.
 struct Window {
     app: ViewerApp,
@@ -379,6 +442,7 @@ fn run() -> anyhow::Result<()> {
     match &cli.command {
         Some(Command::Render(args)) => render(args),
         Some(Command::Screenshot(args)) => screenshot(args),
+        Some(Command::Compare(args)) => compare(args),
         None => window(&cli),
     }
 }

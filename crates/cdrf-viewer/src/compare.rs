@@ -1,0 +1,1055 @@
+//! Measured CDRF vs Gaussian CDRF vs Lambert against path-traced references, in numbers and
+//! pictures (the `compare` command).
+//!
+//! For each case (a scene file and the path-traced image of the same object, camera and light:
+//! `data/compare.toml`) the object is rendered with the three models of one fit folder: the
+//! measured LUT, the Gaussian CDRF fitted to the same photographs (both with the fit's view
+//! correction), and Lambert with an albedo fitted to the same measurement
+//! ([`lambert_albedo_from_lut`]). Each render is compared with the reference:
+//!
+//! - **Pixels compared**: those the render covers fully (4× MSAA coverage = 1) with every
+//!   neighbour within [`ERODE_PX`] pixels covered too — the silhouette eroded by 2 px, so edge
+//!   pixels (partial coverage, sub-pixel silhouette differences) never count.
+//! - **Regions** by θ, the angle between normal and light, from two extra Lambert renders
+//!   (light and opposite light: cos θ = L₊ − L₋ per pixel, as the renderer interpolates normals):
+//!   lit side cos θ ≥ 0.26 (θ ≤ 75°), terminator band |cos θ| < 0.26, shadow side cos θ ≤ −0.26;
+//!   and the *cast shadow*: points facing the light (cos θ > 0) that another part of the object
+//!   hides from it ([`cast_shadow`], a CPU shadow map), taken out of the lit side and the
+//!   terminator band — light that no local model can know is missing.
+//! - **Radiance errors** on 8 × 8-pixel blocks (the references' per-pixel noise is 7 % lit to
+//!   tens of per cent in shadow; a block averages 64 pixels) that lie wholly in the compared
+//!   pixels, assigned to a region by their mean cos θ: *relative RMSE* =
+//!   √(Σ|R − T|²) / √(Σ T²) and *mean relative error* = Σ|R − T| / Σ T, both over blocks and
+//!   channels (T the reference, R the render). Ratios of sums, not means of ratios: a block in
+//!   a cast shadow (T ≈ 0) weighs by its radiance instead of dividing by nearly zero.
+//! - **FLIP** (NVIDIA FLIP, 67 px/°) between the tone-mapped images (both × the exposure that
+//!   puts the reference's 99th-percentile luminance at 0.9, clamped, sRGB), averaged over the
+//!   compared pixels of each region.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use cdrf_core::gaussian::GaussianCdrf;
+use cdrf_core::glam::Vec3;
+use cdrf_core::image_file::{RgbaImage, linear_to_srgb};
+use cdrf_core::scene::{DirectionalLight, Material, Scene};
+use cdrf_core::{CdrfLut, ViewCorrection};
+use cdrf_render::Options;
+use cdrf_render::headless::{HeadlessDevice, RenderSettings, render_scene};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::assets::{FIT_GAUSSIAN_FILE, FIT_LUT_FILE, LoadedGaussian, LoadedLut};
+
+/// Pixels eroded from the render's silhouette before comparing.
+pub const ERODE_PX: i32 = 2;
+/// Side of the blocks radiance errors are computed on, pixels.
+pub const BLOCK_PX: u32 = 8;
+/// |cos θ| below which a block or pixel is in the terminator band (θ within 75°…105°).
+pub const TERMINATOR_COS: f32 = 0.26;
+
+/// Why a comparison could not run.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum CompareError {
+    /// A file could not be read or parsed.
+    #[error("{}: {message}", path.display())]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// The render or the reference is unusable for this comparison.
+    #[error("case {case}: {message}")]
+    Case {
+        /// The case.
+        case: String,
+        /// What went wrong.
+        message: String,
+    },
+    /// Rendering failed.
+    #[error("case {case}: rendering: {message}")]
+    Render {
+        /// The case.
+        case: String,
+        /// The renderer's error.
+        message: String,
+    },
+}
+
+/// One comparison: a scene and its path-traced image.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseSpec {
+    /// Short name (file names of the outputs).
+    pub name: String,
+    /// Scene file (mesh, camera, light; its shading is replaced by each model).
+    pub scene: PathBuf,
+    /// Path-traced reference, linear radiance OpenEXR, the scene camera's size.
+    pub reference: PathBuf,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Manifest {
+    case: Vec<CaseSpec>,
+}
+
+/// Reads a comparison manifest (`[[case]] name, scene, reference`; paths relative to it).
+///
+/// # Errors
+/// [`CompareError::File`] naming the manifest.
+pub fn read_manifest(path: &Path) -> Result<Vec<CaseSpec>, CompareError> {
+    let file_error = |message: String| CompareError::File {
+        path: path.to_owned(),
+        message,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| file_error(e.to_string()))?;
+    let manifest: Manifest = toml::from_str(&text).map_err(|e| file_error(e.to_string()))?;
+    if manifest.case.is_empty() {
+        return Err(file_error("no [[case]]".into()));
+    }
+    let base = path.parent().unwrap_or(Path::new("."));
+    Ok(manifest
+        .case
+        .into_iter()
+        .map(|case| CaseSpec {
+            scene: base.join(&case.scene),
+            reference: base.join(&case.reference),
+            name: case.name,
+        })
+        .collect())
+}
+
+/// The three models of one fit.
+#[derive(Clone, Debug)]
+pub struct Models {
+    /// The measured table (with its view correction).
+    pub measured: CdrfLut,
+    /// Kubo's Gaussian CDRF fitted to the same photographs.
+    pub gaussian: GaussianCdrf,
+    /// The view correction the Gaussian shares with the table.
+    pub view_correction: ViewCorrection,
+    /// Lambert's albedo per channel ([`lambert_albedo_from_lut`]).
+    pub lambert_albedo: [f32; 3],
+}
+
+impl Models {
+    /// The models of a cdrf-fit output folder (`measured.exr`, `gaussian.toml`).
+    ///
+    /// # Errors
+    /// [`CompareError::File`] naming the file.
+    pub fn from_fit_folder(folder: &Path) -> Result<Self, CompareError> {
+        let file_error = |path: PathBuf| {
+            move |e: crate::assets::AssetError| CompareError::File {
+                path: path.clone(),
+                message: e.to_string(),
+            }
+        };
+        let lut_path = folder.join(FIT_LUT_FILE);
+        let gaussian_path = folder.join(FIT_GAUSSIAN_FILE);
+        let lut = LoadedLut::load(&lut_path)
+            .map_err(file_error(lut_path))?
+            .lut;
+        let gaussian =
+            LoadedGaussian::load(&gaussian_path).map_err(file_error(gaussian_path.clone()))?;
+        let model = gaussian
+            .model_with_sigma(gaussian.parameters.sigma_mm)
+            .map_err(|e| CompareError::File {
+                path: gaussian_path,
+                message: e.to_string(),
+            })?;
+        Ok(Self {
+            lambert_albedo: lambert_albedo_from_lut(&lut),
+            measured: lut,
+            gaussian: model,
+            view_correction: gaussian.view_correction,
+        })
+    }
+}
+
+/// The Lambertian albedo closest to the measured table, per channel: least squares of
+/// `f(κ, θ) ≈ a·max(cos θ, 0)` over every row (every measured radius, each weighted alike) and
+/// θ weighted by sin θ (the solid angle each θ covers on a sphere). The table is the
+/// measurement of the spheres, so this is Lambert fitted to the same photographs.
+pub fn lambert_albedo_from_lut(lut: &CdrfLut) -> [f32; 3] {
+    let columns = lut.theta_count();
+    let (mut numerator, mut denominator) = (Vec3::ZERO, 0.0f64);
+    for row in 0..lut.curvature_axis().count {
+        for (column, value) in lut.row(row).iter().enumerate() {
+            let theta = cdrf_core::lut::theta_rad_at(column, columns);
+            let c = theta.cos().max(0.0);
+            let weight = theta.sin();
+            numerator += *value * (c * weight);
+            denominator += f64::from(c * c * weight);
+        }
+    }
+    if denominator <= 0.0 {
+        return [0.0; 3];
+    }
+    (numerator / denominator as f32).to_array()
+}
+
+/// A shading model compared.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ModelName {
+    /// The measured LUT.
+    Measured,
+    /// Kubo's Gaussian CDRF.
+    Gaussian,
+    /// Lambert with the fitted albedo.
+    Lambert,
+}
+
+impl ModelName {
+    /// All three, in table order.
+    pub const ALL: [ModelName; 3] = [ModelName::Measured, ModelName::Gaussian, ModelName::Lambert];
+}
+
+impl fmt::Display for ModelName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ModelName::Measured => "measured CDRF",
+            ModelName::Gaussian => "Gaussian CDRF",
+            ModelName::Lambert => "Lambert",
+        })
+    }
+}
+
+/// A region of the object.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Region {
+    /// Every compared pixel.
+    Whole,
+    /// cos θ ≥ [`TERMINATOR_COS`].
+    Lit,
+    /// |cos θ| < [`TERMINATOR_COS`].
+    Terminator,
+    /// cos θ ≤ −[`TERMINATOR_COS`].
+    Shadow,
+    /// Facing the light (cos θ > 0) but hidden from it by another part of the object: light no
+    /// local model (no CDRF) knows is missing. Excluded from the lit side and the terminator
+    /// band.
+    CastShadow,
+}
+
+impl Region {
+    /// All four, in table order.
+    pub const ALL: [Region; 5] = [
+        Region::Whole,
+        Region::Lit,
+        Region::Terminator,
+        Region::Shadow,
+        Region::CastShadow,
+    ];
+
+    /// Whether a pixel or block with mean `cos_theta` and `occluded` (the fraction of it in a
+    /// cast shadow, 0 or 1 for a pixel) belongs to the region; a block counts as cast shadow
+    /// when most of it is.
+    fn contains(self, cos_theta: f32, occluded: f32) -> bool {
+        let cast = occluded > 0.5 && cos_theta > 0.0;
+        match self {
+            Region::Whole => true,
+            Region::Lit => cos_theta >= TERMINATOR_COS && !cast,
+            Region::Terminator => cos_theta.abs() < TERMINATOR_COS && !cast,
+            Region::Shadow => cos_theta <= -TERMINATOR_COS,
+            Region::CastShadow => cast,
+        }
+    }
+}
+
+impl fmt::Display for Region {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Region::Whole => "whole object",
+            Region::Lit => "lit side",
+            Region::Terminator => "terminator band",
+            Region::Shadow => "shadow side",
+            Region::CastShadow => "cast shadow",
+        })
+    }
+}
+
+/// Errors of one model in one region.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Metrics {
+    /// √(Σ|R − T|²) / √(Σ T²) over 8 × 8 blocks and channels.
+    pub relative_rmse: f64,
+    /// Σ|R − T| / Σ T over 8 × 8 blocks and channels.
+    pub mean_relative_error: f64,
+    /// Mean FLIP of the tone-mapped images over the region's pixels.
+    pub flip: f64,
+}
+
+/// One region's row of the table.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RegionRow {
+    /// The region.
+    pub region: Region,
+    /// 8 × 8 blocks compared.
+    pub blocks: usize,
+    /// Pixels compared (FLIP).
+    pub pixels: usize,
+    /// Per model, in [`ModelName::ALL`] order.
+    pub models: Vec<ModelMetrics>,
+}
+
+/// One model's errors in one region.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ModelMetrics {
+    /// The model.
+    pub model: ModelName,
+    /// Its errors.
+    #[serde(flatten)]
+    pub metrics: Metrics,
+}
+
+/// The result of one case.
+#[derive(Clone, Debug, Serialize)]
+pub struct CaseResult {
+    /// The case's name.
+    pub name: String,
+    /// Image size compared, pixels.
+    pub width: u32,
+    /// Image size compared, pixels.
+    pub height: u32,
+    /// The tone-mapping exposure (FLIP and figure).
+    pub exposure: f32,
+    /// Lambert's albedo used.
+    pub lambert_albedo: [f32; 3],
+    /// One row per region.
+    pub regions: Vec<RegionRow>,
+    /// Reference, renders per model, cos θ and the compared-pixel mask (for the figure).
+    #[serde(skip)]
+    pub images: CaseImages,
+}
+
+impl CaseResult {
+    /// The metrics of `model` in `region`.
+    pub fn metrics(&self, region: Region, model: ModelName) -> Option<Metrics> {
+        self.regions
+            .iter()
+            .find(|row| row.region == region)?
+            .models
+            .iter()
+            .find(|entry| entry.model == model)
+            .map(|entry| entry.metrics)
+    }
+}
+
+/// The images of one case.
+#[derive(Clone, Debug, Default)]
+pub struct CaseImages {
+    /// The reference at the compared size.
+    pub reference: Option<RgbaImage>,
+    /// The renders, in [`ModelName::ALL`] order.
+    pub renders: Vec<RgbaImage>,
+    /// Per-pixel cos θ.
+    pub cos_theta: Vec<f32>,
+    /// Per-pixel: compared or not.
+    pub mask: Vec<bool>,
+    /// Per-pixel: 1 where the surface point is hidden from the light by the object, else 0.
+    pub occluded: Vec<f32>,
+}
+
+/// Renders `case` with the three `models` at `size` × `size` pixels (a divisor of the
+/// reference's size: the reference is box-averaged down to it; `None` = the reference's size)
+/// and compares each with the reference.
+///
+/// # Errors
+/// [`CompareError`] naming the file or case.
+pub fn run_case(
+    device: &HeadlessDevice,
+    case: &CaseSpec,
+    models: &Models,
+    size: Option<u32>,
+) -> Result<CaseResult, CompareError> {
+    let case_error = |message: String| CompareError::Case {
+        case: case.name.clone(),
+        message,
+    };
+    let mut scene = Scene::load(&case.scene).map_err(|e| CompareError::File {
+        path: case.scene.clone(),
+        message: e.to_string(),
+    })?;
+    let reference = RgbaImage::read_exr(&case.reference).map_err(|e| CompareError::File {
+        path: case.reference.clone(),
+        message: e.to_string(),
+    })?;
+    if (reference.width, reference.height) != (scene.camera.width, scene.camera.height) {
+        return Err(case_error(format!(
+            "the reference is {} × {} px but the scene's camera is {} × {}",
+            reference.width, reference.height, scene.camera.width, scene.camera.height
+        )));
+    }
+    let (width, height) = match size {
+        None => (reference.width, reference.height),
+        Some(size) => (size, size * reference.height / reference.width.max(1)),
+    };
+    if width == 0
+        || height == 0
+        || reference.width % width != 0
+        || reference.height % height != 0
+        || reference.width / width != reference.height / height
+    {
+        return Err(case_error(format!(
+            "size {width} × {height} px: must divide the reference's {} × {} evenly",
+            reference.width, reference.height
+        )));
+    }
+    let reference = downsample(&reference, reference.width / width);
+    scene.camera.width = width;
+    scene.camera.height = height;
+    scene.camera.msaa_samples = 4;
+    let mut assets = scene.load_assets().map_err(|e| CompareError::File {
+        path: case.scene.clone(),
+        message: e.to_string(),
+    })?;
+
+    let settings = RenderSettings {
+        options: Options::PREDICTABLE,
+        ..RenderSettings::default()
+    };
+    let mut render = |scene: &Scene, material: Material| {
+        assets.material = material;
+        render_scene(device, scene, &assets, &settings)
+            .map(|rendered| rendered.image)
+            .map_err(|e| CompareError::Render {
+                case: case.name.clone(),
+                message: e.to_string(),
+            })
+    };
+    let renders = vec![
+        render(&scene, Material::Measured(models.measured.clone()))?,
+        render(
+            &scene,
+            Material::Gaussian {
+                model: models.gaussian,
+                view_correction: models.view_correction.clone(),
+            },
+        )?,
+        render(
+            &scene,
+            Material::Lambert {
+                albedo: models.lambert_albedo,
+            },
+        )?,
+    ];
+
+    // cos θ per pixel: a white Lambertian surface lit from the light and from the opposite
+    // side gives max(cos θ, 0)/π and max(−cos θ, 0)/π.
+    let Some(light) = scene.lights.first().copied() else {
+        return Err(case_error("the scene has no light".into()));
+    };
+    let white = || Material::Lambert { albedo: [1.0; 3] };
+    let mut one_light = scene.clone();
+    one_light.lights = vec![DirectionalLight {
+        to_light: light.to_light,
+        irradiance: [1.0; 3],
+    }];
+    let toward = render(&one_light, white())?;
+    one_light.lights[0].to_light = -light.to_light;
+    let away = render(&one_light, white())?;
+    let cos_theta: Vec<f32> = toward
+        .pixels
+        .iter()
+        .zip(&away.pixels)
+        .map(|(p, q)| {
+            let coverage = p[3].max(1e-6);
+            std::f32::consts::PI * (p[0] - q[0]) / coverage
+        })
+        .collect();
+
+    let mask = eroded_mask(&renders[0], ERODE_PX);
+    if !mask.iter().any(|&m| m) {
+        return Err(case_error("the object covers no pixel fully".into()));
+    }
+    let occluded = cast_shadow(&scene, &assets.mesh, light.to_light, width, height);
+    let geometry = Geometry {
+        mask: &mask,
+        cos_theta: &cos_theta,
+        occluded: &occluded,
+    };
+    let exposure = tone_exposure(&reference, &mask);
+    let reference_tone = tone_map(&reference, exposure);
+    let flips: Vec<Vec<f32>> = renders
+        .iter()
+        .map(|render| flip_map(&reference_tone, &tone_map(render, exposure), width, height))
+        .collect();
+
+    let mut regions = Vec::new();
+    for region in Region::ALL {
+        let mut models_row = Vec::new();
+        let mut blocks = 0;
+        let mut pixels = 0;
+        for (index, model) in ModelName::ALL.into_iter().enumerate() {
+            let stats = block_stats(&renders[index], &reference, &geometry, region);
+            let (flip, count) = region_flip(&flips[index], &geometry, region);
+            blocks = stats.blocks;
+            pixels = count;
+            models_row.push(ModelMetrics {
+                model,
+                metrics: Metrics {
+                    relative_rmse: stats.relative_rmse,
+                    mean_relative_error: stats.mean_relative_error,
+                    flip,
+                },
+            });
+        }
+        regions.push(RegionRow {
+            region,
+            blocks,
+            pixels,
+            models: models_row,
+        });
+    }
+    Ok(CaseResult {
+        name: case.name.clone(),
+        width,
+        height,
+        exposure,
+        lambert_albedo: models.lambert_albedo,
+        regions,
+        images: CaseImages {
+            reference: Some(reference),
+            renders,
+            cos_theta,
+            mask,
+            occluded,
+        },
+    })
+}
+
+/// Box-averages `image` by `factor` in each direction.
+fn downsample(image: &RgbaImage, factor: u32) -> RgbaImage {
+    if factor <= 1 {
+        return image.clone();
+    }
+    let (width, height) = (image.width / factor, image.height / factor);
+    let mut out = RgbaImage::new(width, height);
+    let scale = 1.0 / (factor * factor) as f32;
+    for y in 0..height {
+        for x in 0..width {
+            let mut sum = [0.0f32; 4];
+            for dy in 0..factor {
+                for dx in 0..factor {
+                    let p = image.pixel(x * factor + dx, y * factor + dy);
+                    for c in 0..4 {
+                        sum[c] += p[c];
+                    }
+                }
+            }
+            out.pixels[(y * width + x) as usize] = sum.map(|s| s * scale);
+        }
+    }
+    out
+}
+
+/// Pixels the render covers fully with every neighbour within `erode` pixels covered too.
+fn eroded_mask(render: &RgbaImage, erode: i32) -> Vec<bool> {
+    let (w, h) = (render.width as i32, render.height as i32);
+    let full = |x: i32, y: i32| {
+        x >= 0 && y >= 0 && x < w && y < h && render.pixels[(y * w + x) as usize][3] >= 0.999
+    };
+    let mut mask = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            mask.push((-erode..=erode).all(|dy| (-erode..=erode).all(|dx| full(x + dx, y + dy))));
+        }
+    }
+    mask
+}
+
+fn luminance(p: [f32; 4]) -> f32 {
+    0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]
+}
+
+/// The exposure that puts the reference's 99th-percentile luminance (over the mask) at 0.9.
+fn tone_exposure(reference: &RgbaImage, mask: &[bool]) -> f32 {
+    let mut values: Vec<f32> = reference
+        .pixels
+        .iter()
+        .zip(mask)
+        .filter(|(_, m)| **m)
+        .map(|(p, _)| luminance(*p))
+        .collect();
+    values.sort_by(f32::total_cmp);
+    let high = values
+        .get(values.len() * 99 / 100)
+        .copied()
+        .unwrap_or(1.0)
+        .max(1e-6);
+    0.9 / high
+}
+
+/// Exposed, clamped, sRGB-encoded RGB bytes (what FLIP and the figure see).
+fn tone_map(image: &RgbaImage, exposure: f32) -> Vec<u8> {
+    image
+        .pixels
+        .iter()
+        .flat_map(|p| {
+            [0, 1, 2]
+                .map(|c| (linear_to_srgb((p[c] * exposure).clamp(0.0, 1.0)) * 255.0).round() as u8)
+        })
+        .collect()
+}
+
+fn flip_map(reference: &[u8], test: &[u8], width: u32, height: u32) -> Vec<f32> {
+    let to_flip = |rgb: &[u8]| nv_flip::FlipImageRgb8::with_data(width, height, rgb);
+    nv_flip::flip(
+        to_flip(reference),
+        to_flip(test),
+        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
+    )
+    .to_vec()
+}
+
+fn region_flip(flip: &[f32], geometry: &Geometry<'_>, region: Region) -> (f64, usize) {
+    let (mut sum, mut count) = (0.0f64, 0usize);
+    for (i, &error) in flip.iter().enumerate() {
+        if geometry.mask[i] && region.contains(geometry.cos_theta[i], geometry.occluded[i]) {
+            sum += f64::from(error);
+            count += 1;
+        }
+    }
+    (
+        if count > 0 {
+            sum / count as f64
+        } else {
+            f64::NAN
+        },
+        count,
+    )
+}
+
+struct BlockStats {
+    relative_rmse: f64,
+    mean_relative_error: f64,
+    blocks: usize,
+}
+
+/// Where each pixel is: compared or not, cos θ, in a cast shadow or not.
+struct Geometry<'a> {
+    mask: &'a [bool],
+    cos_theta: &'a [f32],
+    occluded: &'a [f32],
+}
+
+/// One 8 × 8 block wholly inside the mask: means of render, reference, cos θ and occlusion.
+struct Block {
+    render: Vec3,
+    reference: Vec3,
+    cos_theta: f32,
+    occluded: f32,
+    column: u32,
+    row: u32,
+}
+
+fn blocks(render: &RgbaImage, reference: &RgbaImage, geometry: &Geometry<'_>) -> Vec<Block> {
+    let (w, h) = (render.width, render.height);
+    let mut out = Vec::new();
+    for by in 0..h / BLOCK_PX {
+        for bx in 0..w / BLOCK_PX {
+            let (mut r, mut t, mut c, mut o, mut n) = (Vec3::ZERO, Vec3::ZERO, 0.0, 0.0, 0);
+            for y in by * BLOCK_PX..(by + 1) * BLOCK_PX {
+                for x in bx * BLOCK_PX..(bx + 1) * BLOCK_PX {
+                    let i = (y * w + x) as usize;
+                    if geometry.mask[i] {
+                        let (p, q) = (render.pixels[i], reference.pixels[i]);
+                        r += Vec3::new(p[0], p[1], p[2]);
+                        t += Vec3::new(q[0], q[1], q[2]);
+                        c += geometry.cos_theta[i];
+                        o += geometry.occluded[i];
+                        n += 1;
+                    }
+                }
+            }
+            if n == BLOCK_PX * BLOCK_PX {
+                let n = n as f32;
+                out.push(Block {
+                    render: r / n,
+                    reference: t / n,
+                    cos_theta: c / n,
+                    occluded: o / n,
+                    column: bx,
+                    row: by,
+                });
+            }
+        }
+    }
+    out
+}
+
+fn block_stats(
+    render: &RgbaImage,
+    reference: &RgbaImage,
+    geometry: &Geometry<'_>,
+    region: Region,
+) -> BlockStats {
+    let (mut squared_error, mut squared_reference, mut absolute_error, mut total, mut count) =
+        (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
+    for block in blocks(render, reference, geometry) {
+        if !region.contains(block.cos_theta, block.occluded) {
+            continue;
+        }
+        let (t, difference) = (block.reference, block.render - block.reference);
+        squared_error += f64::from(difference.length_squared());
+        squared_reference += f64::from(t.length_squared());
+        absolute_error += f64::from(difference.abs().element_sum());
+        total += f64::from(t.element_sum());
+        count += 1;
+    }
+    if count == 0 {
+        return BlockStats {
+            relative_rmse: f64::NAN,
+            mean_relative_error: f64::NAN,
+            blocks: 0,
+        };
+    }
+    BlockStats {
+        relative_rmse: (squared_error / squared_reference.max(1e-30)).sqrt(),
+        mean_relative_error: absolute_error / total.max(1e-30),
+        blocks: count,
+    }
+}
+
+/// The case's figure: reference | measured | Gaussian | Lambert (tone-mapped), and beneath,
+/// the regions (lit orange, terminator white, shadow blue, cast shadow purple; dark = not
+/// compared) and each
+/// model's signed relative error per 8 × 8 block (red: too bright, blue: too dark, full colour
+/// at ±50 %).
+pub fn figure(result: &CaseResult) -> image::RgbImage {
+    let images = &result.images;
+    let (w, h) = (result.width, result.height);
+    let mut figure = image::RgbImage::new(4 * w, 2 * h);
+    let Some(reference) = &images.reference else {
+        return figure;
+    };
+    let mut paste_tone = |column: u32, image: &RgbaImage| {
+        let rgb = tone_map(image, result.exposure);
+        for y in 0..h {
+            for x in 0..w {
+                let i = ((y * w + x) * 3) as usize;
+                figure.put_pixel(
+                    column * w + x,
+                    y,
+                    image::Rgb([rgb[i], rgb[i + 1], rgb[i + 2]]),
+                );
+            }
+        }
+    };
+    paste_tone(0, reference);
+    for (index, render) in images.renders.iter().enumerate() {
+        paste_tone(index as u32 + 1, render);
+    }
+    let geometry = Geometry {
+        mask: &images.mask,
+        cos_theta: &images.cos_theta,
+        occluded: &images.occluded,
+    };
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let (cos, occluded) = (images.cos_theta[i], images.occluded[i]);
+            let colour = if !images.mask[i] {
+                [20, 20, 20]
+            } else if Region::CastShadow.contains(cos, occluded) {
+                [150, 60, 170]
+            } else if Region::Lit.contains(cos, occluded) {
+                [230, 150, 60]
+            } else if Region::Terminator.contains(cos, occluded) {
+                [235, 235, 235]
+            } else {
+                [60, 110, 220]
+            };
+            figure.put_pixel(x, h + y, image::Rgb(colour));
+        }
+    }
+    for (index, render) in images.renders.iter().enumerate() {
+        let x0 = (index as u32 + 1) * w;
+        for y in 0..h {
+            for x in 0..w {
+                figure.put_pixel(x0 + x, h + y, image::Rgb([20, 20, 20]));
+            }
+        }
+        for block in blocks(render, reference, &geometry) {
+            let (r, t, bx, by) = (block.render, block.reference, block.column, block.row);
+            let relative =
+                ((r - t).element_sum() / t.element_sum().max(1e-9)).clamp(-0.5, 0.5) / 0.5;
+            let strength = relative.abs();
+            let base = if relative > 0.0 {
+                [255.0, 60.0, 40.0]
+            } else {
+                [40.0, 120.0, 255.0]
+            };
+            let colour = base.map(|c: f32| (c * strength + 35.0 * (1.0 - strength)) as u8);
+            for y in by * BLOCK_PX..(by + 1) * BLOCK_PX {
+                for x in bx * BLOCK_PX..(bx + 1) * BLOCK_PX {
+                    figure.put_pixel(x0 + x, h + y, image::Rgb(colour));
+                }
+            }
+        }
+    }
+    figure
+}
+
+/// The results as a Markdown table: per case and region, each model's relative RMSE, mean
+/// relative error and FLIP; the best model of each region and metric in bold.
+pub fn markdown(results: &[CaseResult]) -> String {
+    let mut text = String::new();
+    for result in results {
+        text.push_str(&format!(
+            "**{}** ({} × {} px; Lambert albedo {:.3} {:.3} {:.3})\n\n",
+            result.name,
+            result.width,
+            result.height,
+            result.lambert_albedo[0],
+            result.lambert_albedo[1],
+            result.lambert_albedo[2]
+        ));
+        text.push_str("| region | blocks | measured CDRF | Gaussian CDRF | Lambert |\n");
+        text.push_str("|---|---|---|---|---|\n");
+        for row in &result.regions {
+            let best = |metric: fn(&Metrics) -> f64| {
+                row.models
+                    .iter()
+                    .map(|entry| metric(&entry.metrics))
+                    .filter(|v| v.is_finite())
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let best_rmse = best(|m| m.relative_rmse);
+            let best_mre = best(|m| m.mean_relative_error);
+            let best_flip = best(|m| m.flip);
+            let cell = |value: f64, best: f64, percent: bool| {
+                let text = if !value.is_finite() {
+                    "—".to_owned()
+                } else if percent {
+                    format!("{:.1} %", value * 100.0)
+                } else {
+                    format!("{value:.3}")
+                };
+                if value == best {
+                    format!("**{text}**")
+                } else {
+                    text
+                }
+            };
+            text.push_str(&format!("| {} | {} |", row.region, row.blocks));
+            for entry in &row.models {
+                let m = &entry.metrics;
+                text.push_str(&format!(
+                    " {} / {} / {} |",
+                    cell(m.relative_rmse, best_rmse, true),
+                    cell(m.mean_relative_error, best_mre, true),
+                    cell(m.flip, best_flip, false)
+                ));
+            }
+            text.push('\n');
+        }
+        text.push('\n');
+    }
+    text.push_str(
+        "Each cell: relative RMSE / mean relative error (8 × 8-pixel blocks, linear radiance) / \
+         mean FLIP (tone-mapped). Lower is better; the best of each region in bold.\n",
+    );
+    text
+}
+
+/// Writes `compare.json`, `compare.md` and `<case>.png` (the figures) into `folder` (each
+/// through a temporary file).
+///
+/// # Errors
+/// [`CompareError::File`] naming the file.
+pub fn write_outputs(results: &[CaseResult], folder: &Path) -> Result<Vec<PathBuf>, CompareError> {
+    let file_error = |path: &Path, message: String| CompareError::File {
+        path: path.to_owned(),
+        message,
+    };
+    std::fs::create_dir_all(folder).map_err(|e| file_error(folder, e.to_string()))?;
+    let mut written = Vec::new();
+    let json_path = folder.join("compare.json");
+    let json =
+        serde_json::to_string_pretty(results).map_err(|e| file_error(&json_path, e.to_string()))?;
+    cdrf_core::atomic::write_file(&json_path, |file| {
+        std::io::Write::write_all(file, json.as_bytes())
+    })
+    .map_err(|e| file_error(&json_path, e.to_string()))?;
+    written.push(json_path);
+    let md_path = folder.join("compare.md");
+    let md = markdown(results);
+    cdrf_core::atomic::write_file(&md_path, |file| {
+        std::io::Write::write_all(file, md.as_bytes())
+    })
+    .map_err(|e| file_error(&md_path, e.to_string()))?;
+    written.push(md_path);
+    for result in results {
+        let path = folder.join(format!("{}.png", result.name));
+        let figure = figure(result);
+        cdrf_core::atomic::write_file(&path, |file| {
+            use image::ImageEncoder;
+            image::codecs::png::PngEncoder::new(std::io::BufWriter::new(file))
+                .write_image(
+                    figure.as_raw(),
+                    figure.width(),
+                    figure.height(),
+                    image::ExtendedColorType::Rgb8,
+                )
+                .map_err(std::io::Error::other)
+        })
+        .map_err(|e| file_error(&path, e.to_string()))?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+/// Per pixel of the scene camera's `width` × `height` image: 1 where the visible surface point
+/// is hidden from the directional light `to_light` by another part of `mesh` (model units,
+/// placed by the scene's transform), else 0. Two CPU depth maps: the camera's (which surface
+/// point each pixel sees) and the light's (an orthographic map along `to_light`, 2048 cells
+/// across the object, keeping the point nearest the light); a point is occluded when the
+/// light's map holds a point nearer the light than it by more than a slope-scaled bias
+/// (2 + 2 tan θ cells).
+pub fn cast_shadow(
+    scene: &Scene,
+    mesh: &cdrf_core::Mesh,
+    to_light: Vec3,
+    width: u32,
+    height: u32,
+) -> Vec<f32> {
+    let world_from_model = scene.mesh.transform.world_from_model();
+    let positions: Vec<Vec3> = mesh
+        .positions
+        .iter()
+        .map(|&p| world_from_model.transform_point3(p))
+        .collect();
+    let camera = &scene.camera;
+    let forward = (camera.target - camera.eye).normalize();
+    let depths = positions.iter().map(|p| (*p - camera.eye).dot(forward));
+    let (near, far) = depths.fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), d| {
+        (a.min(d), b.max(d))
+    });
+    let margin = 0.01 * (far - near).abs() + 1e-3;
+    let near = match camera.projection {
+        cdrf_core::scene::Projection::Orthographic { .. } => near - margin,
+        cdrf_core::scene::Projection::Perspective { .. } => (near - margin).max(1e-3),
+    };
+    let clip_from_world = camera.clip_from_view(near, far + margin) * camera.view_from_world();
+
+    // The camera's depth map: the nearest surface point per pixel centre.
+    let screen: Vec<(Vec3, f32)> = positions
+        .iter()
+        .map(|&p| {
+            let clip = clip_from_world * p.extend(1.0);
+            let ndc = clip.truncate() / clip.w;
+            let x = (ndc.x + 1.0) * 0.5 * width as f32;
+            let y = (1.0 - ndc.y) * 0.5 * height as f32;
+            (Vec3::new(x, y, ndc.z), clip.w)
+        })
+        .collect();
+    let normal_from_model = cdrf_core::glam::Mat3::from_mat4(world_from_model)
+        .inverse()
+        .transpose();
+    let normals: Vec<Vec3> = mesh
+        .normals
+        .iter()
+        .map(|&n| (normal_from_model * n).normalize_or_zero())
+        .collect();
+    // Per pixel: depth, surface point, normal.
+    let mut seen: Vec<Option<(f32, Vec3, Vec3)>> = vec![None; (width * height) as usize];
+    for triangle in &mesh.triangles {
+        let [a, b, c] = triangle.map(|i| i as usize);
+        rasterize(
+            [screen[a].0, screen[b].0, screen[c].0],
+            width,
+            height,
+            |x, y, weights| {
+                // Perspective-correct interpolation of the world position.
+                let w =
+                    Vec3::new(1.0 / screen[a].1, 1.0 / screen[b].1, 1.0 / screen[c].1) * weights;
+                let w = w / w.element_sum();
+                let depth = screen[a].0.z * weights.x
+                    + screen[b].0.z * weights.y
+                    + screen[c].0.z * weights.z;
+                let point = positions[a] * w.x + positions[b] * w.y + positions[c] * w.z;
+                let normal = normals[a] * w.x + normals[b] * w.y + normals[c] * w.z;
+                let slot = &mut seen[(y * width + x) as usize];
+                if slot.is_none_or(|(d, _, _)| depth < d) {
+                    *slot = Some((depth, point, normal.normalize_or_zero()));
+                }
+            },
+        );
+    }
+
+    // The light's depth map: along to_light, keep the point nearest the light.
+    let light = to_light.normalize();
+    let u = light.any_orthonormal_vector();
+    let v = light.cross(u);
+    let light_space: Vec<Vec3> = positions
+        .iter()
+        .map(|p| Vec3::new(p.dot(u), p.dot(v), p.dot(light)))
+        .collect();
+    let (min, max) = light_space.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    const CELLS: u32 = 2048;
+    let cell = ((max.x - min.x).max(max.y - min.y) / (CELLS - 2) as f32).max(1e-9);
+    let to_cell = |p: Vec3| Vec3::new((p.x - min.x) / cell + 1.0, (p.y - min.y) / cell + 1.0, p.z);
+    let mut nearest = vec![f32::NEG_INFINITY; (CELLS * CELLS) as usize];
+    for triangle in &mesh.triangles {
+        let corners = triangle.map(|i| to_cell(light_space[i as usize]));
+        rasterize(corners, CELLS, CELLS, |x, y, weights| {
+            let toward =
+                corners[0].z * weights.x + corners[1].z * weights.y + corners[2].z * weights.z;
+            let slot = &mut nearest[(y * CELLS + x) as usize];
+            *slot = slot.max(toward);
+        });
+    }
+    seen.iter()
+        .map(|hit| {
+            let Some((_, point, normal)) = hit else {
+                return 0.0;
+            };
+            // Slope-scaled: a surface at grazing light changes its distance to the light by
+            // tan θ per unit across, so a cell holds points up to that much nearer.
+            let cos_theta = normal.dot(light).clamp(-1.0, 1.0);
+            let tan_theta = (1.0 - cos_theta * cos_theta).sqrt() / cos_theta.abs().max(0.02);
+            let bias = cell * (2.0 + 2.0 * tan_theta);
+            let p = to_cell(Vec3::new(point.dot(u), point.dot(v), point.dot(light)));
+            let (x, y) = (p.x.floor() as i64, p.y.floor() as i64);
+            if x < 0 || y < 0 || x >= i64::from(CELLS) || y >= i64::from(CELLS) {
+                return 0.0;
+            }
+            let occluder = nearest[(y as u32 * CELLS + x as u32) as usize];
+            if occluder > p.z + bias { 1.0 } else { 0.0 }
+        })
+        .collect()
+}
+
+/// Calls `shade(x, y, barycentric weights)` for every pixel centre (x + 0.5, y + 0.5) of a
+/// `width` × `height` grid inside the triangle `corners` (x, y in pixels; either winding).
+fn rasterize(corners: [Vec3; 3], width: u32, height: u32, mut shade: impl FnMut(u32, u32, Vec3)) {
+    let [a, b, c] = corners;
+    let area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if area.abs() < 1e-12 || !area.is_finite() {
+        return;
+    }
+    let lo_x = a.x.min(b.x).min(c.x).floor().max(0.0) as u32;
+    let hi_x = (a.x.max(b.x).max(c.x).ceil().max(0.0) as u32).min(width);
+    let lo_y = a.y.min(b.y).min(c.y).floor().max(0.0) as u32;
+    let hi_y = (a.y.max(b.y).max(c.y).ceil().max(0.0) as u32).min(height);
+    for y in lo_y..hi_y {
+        for x in lo_x..hi_x {
+            let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+            let w0 = ((b.x - px) * (c.y - py) - (b.y - py) * (c.x - px)) / area;
+            let w1 = ((c.x - px) * (a.y - py) - (c.y - py) * (a.x - px)) / area;
+            let w2 = 1.0 - w0 - w1;
+            if w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0 {
+                shade(x, y, Vec3::new(w0, w1, w2));
+            }
+        }
+    }
+}
