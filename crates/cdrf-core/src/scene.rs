@@ -8,6 +8,7 @@
 //! scale = 1.0                   # optional model transform: uniform scale (default 1)
 //! rotate_deg = [0.0, 0.0, 0.0]  # optional: about x, then y, then z, degrees
 //! translate = [0.0, 0.0, 0.0]   # optional: world units, applied last
+//! curvature_smoothing = 0       # optional: rounds of curvature smoothing (default 0)
 //!
 //! [camera]
 //! projection = "orthographic"   # or "perspective" (then vertical_fov_deg)
@@ -78,6 +79,9 @@ pub struct MeshSpec {
     pub mm_per_unit: f32,
     /// Model → world.
     pub transform: ModelTransform,
+    /// Rounds of smoothing of the per-vertex curvature
+    /// ([`CurvatureOptions::with_smoothing_iterations`]); 0 = none.
+    pub curvature_smoothing: u32,
 }
 
 /// Uniform scale, then rotations about x, y and z, then translation.
@@ -348,6 +352,8 @@ struct RawMesh {
     rotate_deg: [f32; 3],
     #[serde(default)]
     translate: [f32; 3],
+    #[serde(default)]
+    curvature_smoothing: u32,
 }
 
 #[derive(Deserialize)]
@@ -450,6 +456,7 @@ impl Scene {
                 rotate_deg: m.rotate_deg,
                 translate: m.translate,
             },
+            curvature_smoothing: m.curvature_smoothing,
         };
 
         let c = raw.camera;
@@ -670,13 +677,15 @@ impl Scene {
         let mesh = Mesh::load(&self.mesh.path)
             .map_err(|error| SceneError::Mesh { error })?
             .mesh;
-        let curvature_per_mm =
-            mean_curvature_per_mm(&mesh, &CurvatureOptions::new(self.mesh.mm_per_unit)).map_err(
-                |error| SceneError::Curvature {
-                    mesh: self.mesh.path.clone(),
-                    error,
-                },
-            )?;
+        let curvature_per_mm = mean_curvature_per_mm(
+            &mesh,
+            &CurvatureOptions::new(self.mesh.mm_per_unit)
+                .with_smoothing_iterations(self.mesh.curvature_smoothing),
+        )
+        .map_err(|error| SceneError::Curvature {
+            mesh: self.mesh.path.clone(),
+            error,
+        })?;
         let material = match &self.shading {
             ShadingSpec::Measured { lut } => {
                 Material::Measured(read_lut(lut).map_err(|error| SceneError::Lut { error })?)

@@ -118,6 +118,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                 path: PathBuf::from(label),
                 mm_per_unit,
                 transform: ModelTransform::default(),
+                curvature_smoothing: 0,
             },
             camera: Camera {
                 projection: Projection::Orthographic { half_height },

@@ -293,6 +293,9 @@ pub struct RegionRow {
     pub blocks: usize,
     /// Pixels compared (FLIP).
     pub pixels: usize,
+    /// Mean reference radiance of the region's blocks (over channels), for scale: the relative
+    /// errors of a nearly black region are large however small the absolute error.
+    pub reference_mean_radiance: f64,
     /// Per model, in [`ModelName::ALL`] order.
     pub models: Vec<ModelMetrics>,
 }
@@ -357,7 +360,8 @@ pub struct CaseImages {
 
 /// Renders `case` with the three `models` at `size` × `size` pixels (a divisor of the
 /// reference's size: the reference is box-averaged down to it; `None` = the reference's size)
-/// and compares each with the reference.
+/// and compares each with the reference. `curvature_smoothing` overrides the scene's
+/// `[mesh] curvature_smoothing`.
 ///
 /// # Errors
 /// [`CompareError`] naming the file or case.
@@ -366,6 +370,7 @@ pub fn run_case(
     case: &CaseSpec,
     models: &Models,
     size: Option<u32>,
+    curvature_smoothing: Option<u32>,
 ) -> Result<CaseResult, CompareError> {
     let case_error = |message: String| CompareError::Case {
         case: case.name.clone(),
@@ -404,6 +409,9 @@ pub fn run_case(
     scene.camera.width = width;
     scene.camera.height = height;
     scene.camera.msaa_samples = 4;
+    if let Some(rounds) = curvature_smoothing {
+        scene.mesh.curvature_smoothing = rounds;
+    }
     let mut assets = scene.load_assets().map_err(|e| CompareError::File {
         path: case.scene.clone(),
         message: e.to_string(),
@@ -483,13 +491,13 @@ pub fn run_case(
     let mut regions = Vec::new();
     for region in Region::ALL {
         let mut models_row = Vec::new();
-        let mut blocks = 0;
-        let mut pixels = 0;
+        let (mut blocks, mut pixels, mut reference_mean_radiance) = (0, 0, f64::NAN);
         for (index, model) in ModelName::ALL.into_iter().enumerate() {
             let stats = block_stats(&renders[index], &reference, &geometry, region);
             let (flip, count) = region_flip(&flips[index], &geometry, region);
             blocks = stats.blocks;
             pixels = count;
+            reference_mean_radiance = stats.reference_mean;
             models_row.push(ModelMetrics {
                 model,
                 metrics: Metrics {
@@ -503,6 +511,7 @@ pub fn run_case(
             region,
             blocks,
             pixels,
+            reference_mean_radiance,
             models: models_row,
         });
     }
@@ -628,6 +637,7 @@ fn region_flip(flip: &[f32], geometry: &Geometry<'_>, region: Region) -> (f64, u
 struct BlockStats {
     relative_rmse: f64,
     mean_relative_error: f64,
+    reference_mean: f64,
     blocks: usize,
 }
 
@@ -706,12 +716,14 @@ fn block_stats(
         return BlockStats {
             relative_rmse: f64::NAN,
             mean_relative_error: f64::NAN,
+            reference_mean: f64::NAN,
             blocks: 0,
         };
     }
     BlockStats {
         relative_rmse: (squared_error / squared_reference.max(1e-30)).sqrt(),
         mean_relative_error: absolute_error / total.max(1e-30),
+        reference_mean: total / (3 * count) as f64,
         blocks: count,
     }
 }
@@ -810,8 +822,10 @@ pub fn markdown(results: &[CaseResult]) -> String {
             result.lambert_albedo[1],
             result.lambert_albedo[2]
         ));
-        text.push_str("| region | blocks | measured CDRF | Gaussian CDRF | Lambert |\n");
-        text.push_str("|---|---|---|---|---|\n");
+        text.push_str(
+            "| region | blocks | mean reference radiance | measured CDRF | Gaussian CDRF | Lambert |\n",
+        );
+        text.push_str("|---|---|---|---|---|---|\n");
         for row in &result.regions {
             let best = |metric: fn(&Metrics) -> f64| {
                 row.models
@@ -837,7 +851,12 @@ pub fn markdown(results: &[CaseResult]) -> String {
                     text
                 }
             };
-            text.push_str(&format!("| {} | {} |", row.region, row.blocks));
+            let radiance = if row.reference_mean_radiance.is_finite() {
+                format!("{:.4}", row.reference_mean_radiance)
+            } else {
+                "—".to_owned()
+            };
+            text.push_str(&format!("| {} | {} | {radiance} |", row.region, row.blocks));
             for entry in &row.models {
                 let m = &entry.metrics;
                 text.push_str(&format!(

@@ -72,6 +72,9 @@ struct CompareArgs {
     /// Only the named case (repeatable).
     #[arg(long = "case", value_name = "NAME")]
     only: Vec<String>,
+    /// Override every scene's `[mesh] curvature_smoothing` (rounds of curvature smoothing).
+    #[arg(long, value_name = "N")]
+    curvature_smoothing: Option<u32>,
     /// Insist on a software adapter (lavapipe).
     #[arg(long)]
     software: bool,
@@ -296,7 +299,13 @@ fn compare(args: &CompareArgs) -> anyhow::Result<()> {
     let mut results = Vec::new();
     for case in &cases {
         eprintln!("case {}: rendering and comparing", case.name);
-        results.push(run_case(&device, case, &models, args.size)?);
+        results.push(run_case(
+            &device,
+            case,
+            &models,
+            args.size,
+            args.curvature_smoothing,
+        )?);
     }
     let written = write_outputs(&results, &args.out)?;
     println!("{}", markdown(&results));

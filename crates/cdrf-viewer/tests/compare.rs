@@ -23,8 +23,8 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
     let device = HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|e| panic!("{e}"));
     let models =
         Models::from_fit_folder(&data_dir().join("wax-fit")).unwrap_or_else(|e| panic!("{e}"));
-    let result =
-        run_case(&device, &sphere_case(), &models, Some(128)).unwrap_or_else(|e| panic!("{e}"));
+    let result = run_case(&device, &sphere_case(), &models, Some(128), None)
+        .unwrap_or_else(|e| panic!("{e}"));
     println!(
         "{}",
         cdrf_viewer::compare::markdown(std::slice::from_ref(&result))
