@@ -389,9 +389,10 @@ impl Window {
 
 const NO_DISPLAY_HELP: &str = "\
 no display: neither DISPLAY nor WAYLAND_DISPLAY is set, so the viewer cannot open a window.
-Without a display, use the headless commands:
+Without a display, use the headless commands (from a checkout: cargo run --release -p cdrf-viewer -- ...):
   cdrf-viewer render --scene data/scenes/bunny.toml --out out/bunny.exr   # one model, float EXR
   cdrf-viewer screenshot --out out/viewer.png                             # the whole UI, offscreen
+  cdrf-viewer compare --out out/compare                                   # the models vs path-traced references
 or run the window under a virtual X server:
   xvfb-run -a -s \"-screen 0 1280x800x24\" cargo run --release -p cdrf-viewer";
 
