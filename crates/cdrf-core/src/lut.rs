@@ -438,6 +438,28 @@ impl CdrfLut {
         }
     }
 
+    /// The Lambertian albedo closest to the table, per channel: least squares of
+    /// `f(κ, θ) ≈ a·max(cos θ, 0)` over every row (each measured curvature alike) and θ
+    /// weighted by sin θ (the solid angle each θ covers on a sphere). The table is the
+    /// measurement of the spheres, so this is Lambert fitted to the same photographs: the fair
+    /// Lambertian baseline.
+    pub fn lambert_albedo(&self) -> [f32; 3] {
+        let (mut numerator, mut denominator) = (Vec3::ZERO, 0.0f64);
+        for row in 0..self.curvature_axis.count {
+            for (column, value) in self.row(row).iter().enumerate() {
+                let theta = theta_rad_at(column, self.theta_count);
+                let c = theta.cos().max(0.0);
+                let weight = theta.sin();
+                numerator += *value * (c * weight);
+                denominator += f64::from(c * c * weight);
+            }
+        }
+        if denominator <= 0.0 {
+            return [0.0; 3];
+        }
+        (numerator / denominator as f32).to_array()
+    }
+
     /// Radiance factor with the view correction: f(κ, θ) · g(θ, φ), π·L/E.
     /// Multiply by E/π for radiance.
     pub fn evaluate(

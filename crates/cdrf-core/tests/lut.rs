@@ -244,3 +244,27 @@ fn malformed_tables_are_errors_not_panics() {
         })
     ));
 }
+
+#[test]
+fn lambert_albedo_recovers_a_lambertian_table_and_fits_a_glowing_one() {
+    let axis = CurvatureAxis::from_radii_mm(50.0, 15.0, 8);
+    let albedo = [0.8, 0.6, 0.3];
+    let lambert = CdrfLut::tabulate(&Lambert { albedo }, axis, 181).unwrap();
+    let fitted = lambert.lambert_albedo();
+    for (a, b) in fitted.iter().zip(albedo) {
+        assert!((a - b).abs() < 1e-5, "{fitted:?} vs {albedo:?}");
+    }
+    // A table with glow past the terminator (a Gaussian CDRF) still gives an albedo close to
+    // its lit-side scale, and never a negative or non-finite one.
+    let gaussian = cdrf_core::gaussian::GaussianCdrf::with_scale([5.0; 3], albedo).unwrap();
+    let fitted = CdrfLut::tabulate(&gaussian, axis, 181)
+        .unwrap()
+        .lambert_albedo();
+    println!("Lambert albedo of a Gaussian CDRF with scale {albedo:?}: {fitted:?}");
+    for (a, b) in fitted.iter().zip(albedo) {
+        assert!(
+            a.is_finite() && (a - b).abs() < 0.1 * b,
+            "{fitted:?} vs {albedo:?}"
+        );
+    }
+}

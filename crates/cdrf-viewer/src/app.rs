@@ -22,7 +22,8 @@ pub enum Model {
     Measured,
     /// Kubo's Gaussian CDRF fitted to the same photographs.
     Gaussian,
-    /// Lambert with the Gaussian's scale as albedo (the κ → 0 limit of the Gaussian fit).
+    /// Lambert with the albedo fitted to the measured table ([`cdrf_core::CdrfLut::lambert_albedo`];
+    /// the Gaussian's scale when no LUT is loaded).
     Lambert,
 }
 
@@ -358,15 +359,44 @@ impl ViewerApp {
         }
         self.lut_image = None;
         self.lut = Some(lut);
+        self.refresh_lambert_material();
     }
 
     fn set_gaussian(&mut self, gaussian: LoadedGaussian) {
         self.settings.sigma_mm = gaussian.parameters.sigma_mm;
         self.gaussian = Some(gaussian);
         self.refresh_gaussian_materials();
+        self.refresh_lambert_material();
     }
 
-    /// Rebuilds the Gaussian table for the current σ and the Lambert material.
+    /// Rebuilds the Lambert material: the albedo fitted to the measured table, or the
+    /// Gaussian's scale (its κ → 0 limit) without a table.
+    fn refresh_lambert_material(&mut self) {
+        let albedo = match (&self.lut, &self.gaussian) {
+            (Some(lut), _) => lut.lut.lambert_albedo(),
+            (None, Some(gaussian)) => gaussian.parameters.scale,
+            (None, None) => return,
+        };
+        let (device, queue) = (
+            self.render_state.device.clone(),
+            self.render_state.queue.clone(),
+        );
+        let old = self.ids.lambert.take();
+        let created = self.with_gpu(|gpu| {
+            if let Some(old) = old {
+                gpu.renderer.remove_material(old);
+            }
+            gpu.renderer
+                .create_material(&device, &queue, &MaterialDesc::Lambert { albedo })
+        });
+        match created {
+            Some(Ok(id)) => self.ids.lambert = Some(id),
+            Some(Err(error)) => self.error = Some(format!("Lambert: {error}")),
+            None => {}
+        }
+    }
+
+    /// Rebuilds the Gaussian table for the current σ.
     fn refresh_gaussian_materials(&mut self) {
         let Some(gaussian) = &self.gaussian else {
             return;
@@ -378,43 +408,32 @@ impl ViewerApp {
                 return;
             }
         };
-        let albedo = gaussian.parameters.scale;
         let view_correction = gaussian.view_correction.clone();
         let (device, queue) = (
             self.render_state.device.clone(),
             self.render_state.queue.clone(),
         );
-        let old = [self.ids.gaussian.take(), self.ids.lambert.take()];
+        let old = self.ids.gaussian.take();
         self.applied.sigma_mm = self.settings.sigma_mm;
         let start = Instant::now();
         let created = self.with_gpu(|gpu| {
-            for id in old.into_iter().flatten() {
-                gpu.renderer.remove_material(id);
+            if let Some(old) = old {
+                gpu.renderer.remove_material(old);
             }
-            let gaussian = gpu.renderer.create_material(
+            gpu.renderer.create_material(
                 &device,
                 &queue,
                 &MaterialDesc::Gaussian {
                     model: &model,
                     view_correction: &view_correction,
                 },
-            );
-            let lambert =
-                gpu.renderer
-                    .create_material(&device, &queue, &MaterialDesc::Lambert { albedo });
-            (gaussian, lambert)
+            )
         });
         self.gaussian_table_ms = Some(start.elapsed().as_secs_f64() * 1e3);
-        if let Some((gaussian, lambert)) = created {
-            match (gaussian, lambert) {
-                (Ok(gaussian), Ok(lambert)) => {
-                    self.ids.gaussian = Some(gaussian);
-                    self.ids.lambert = Some(lambert);
-                }
-                (Err(error), _) | (_, Err(error)) => {
-                    self.error = Some(format!("Gaussian CDRF: {error}"));
-                }
-            }
+        match created {
+            Some(Ok(id)) => self.ids.gaussian = Some(id),
+            Some(Err(error)) => self.error = Some(format!("Gaussian CDRF: {error}")),
+            None => {}
         }
     }
 

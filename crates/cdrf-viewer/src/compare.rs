@@ -5,7 +5,7 @@
 //! `data/compare.toml`) the object is rendered with the three models of one fit folder: the
 //! measured LUT, the Gaussian CDRF fitted to the same photographs (both with the fit's view
 //! correction), and Lambert with an albedo fitted to the same measurement
-//! ([`lambert_albedo_from_lut`]). Each render is compared with the reference:
+//! ([`CdrfLut::lambert_albedo`]). Each render is compared with the reference:
 //!
 //! - **Pixels compared**: those the render covers fully (4× MSAA coverage = 1) with every
 //!   neighbour within [`ERODE_PX`] pixels covered too — the silhouette eroded by 2 px, so edge
@@ -131,7 +131,7 @@ pub struct Models {
     pub gaussian: GaussianCdrf,
     /// The view correction the Gaussian shares with the table.
     pub view_correction: ViewCorrection,
-    /// Lambert's albedo per channel ([`lambert_albedo_from_lut`]).
+    /// Lambert's albedo per channel ([`CdrfLut::lambert_albedo`]).
     pub lambert_albedo: [f32; 3],
 }
 
@@ -161,34 +161,12 @@ impl Models {
                 message: e.to_string(),
             })?;
         Ok(Self {
-            lambert_albedo: lambert_albedo_from_lut(&lut),
+            lambert_albedo: lut.lambert_albedo(),
             measured: lut,
             gaussian: model,
             view_correction: gaussian.view_correction,
         })
     }
-}
-
-/// The Lambertian albedo closest to the measured table, per channel: least squares of
-/// `f(κ, θ) ≈ a·max(cos θ, 0)` over every row (every measured radius, each weighted alike) and
-/// θ weighted by sin θ (the solid angle each θ covers on a sphere). The table is the
-/// measurement of the spheres, so this is Lambert fitted to the same photographs.
-pub fn lambert_albedo_from_lut(lut: &CdrfLut) -> [f32; 3] {
-    let columns = lut.theta_count();
-    let (mut numerator, mut denominator) = (Vec3::ZERO, 0.0f64);
-    for row in 0..lut.curvature_axis().count {
-        for (column, value) in lut.row(row).iter().enumerate() {
-            let theta = cdrf_core::lut::theta_rad_at(column, columns);
-            let c = theta.cos().max(0.0);
-            let weight = theta.sin();
-            numerator += *value * (c * weight);
-            denominator += f64::from(c * c * weight);
-        }
-    }
-    if denominator <= 0.0 {
-        return [0.0; 3];
-    }
-    (numerator / denominator as f32).to_array()
 }
 
 /// A shading model compared.

@@ -6,9 +6,7 @@ use std::process::Command;
 
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
 use cdrf_tests::data_dir;
-use cdrf_viewer::compare::{
-    CaseSpec, ModelName, Models, Region, lambert_albedo_from_lut, read_manifest, run_case,
-};
+use cdrf_viewer::compare::{CaseSpec, ModelName, Models, Region, read_manifest, run_case};
 
 fn sphere_case() -> CaseSpec {
     let cases = read_manifest(&data_dir().join("compare.toml")).unwrap_or_else(|e| panic!("{e}"));
@@ -64,7 +62,7 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
 fn lambert_albedo_is_fitted_to_the_measurement() {
     let models =
         Models::from_fit_folder(&data_dir().join("wax-fit")).unwrap_or_else(|e| panic!("{e}"));
-    let albedo = lambert_albedo_from_lut(&models.measured);
+    let albedo = models.measured.lambert_albedo();
     println!("Lambert albedo fitted to the measured table: {albedo:?}");
     // Wax scatters light back almost without loss (single-scattering albedo ≥ 0.985): its
     // diffuse albedo is high, red above green above blue.
