@@ -60,6 +60,9 @@ pub enum CompareError {
         /// What went wrong.
         message: String,
     },
+    /// A fit folder's file could not be loaded (the error names the file).
+    #[error(transparent)]
+    Asset(#[from] crate::assets::AssetError),
     /// The render or the reference is unusable for this comparison.
     #[error("case {case}: {message}")]
     Case {
@@ -141,19 +144,9 @@ impl Models {
     /// # Errors
     /// [`CompareError::File`] naming the file.
     pub fn from_fit_folder(folder: &Path) -> Result<Self, CompareError> {
-        let file_error = |path: PathBuf| {
-            move |e: crate::assets::AssetError| CompareError::File {
-                path: path.clone(),
-                message: e.to_string(),
-            }
-        };
-        let lut_path = folder.join(FIT_LUT_FILE);
+        let lut = LoadedLut::load(&folder.join(FIT_LUT_FILE))?.lut;
         let gaussian_path = folder.join(FIT_GAUSSIAN_FILE);
-        let lut = LoadedLut::load(&lut_path)
-            .map_err(file_error(lut_path))?
-            .lut;
-        let gaussian =
-            LoadedGaussian::load(&gaussian_path).map_err(file_error(gaussian_path.clone()))?;
+        let gaussian = LoadedGaussian::load(&gaussian_path)?;
         let model = gaussian
             .model_with_sigma(gaussian.parameters.sigma_mm)
             .map_err(|e| CompareError::File {
