@@ -38,6 +38,7 @@ pub mod lut;
 pub mod lut_file;
 pub mod mesh;
 pub mod scene;
+pub mod translucency;
 
 /// The math types of the public API (positions, normals, matrices).
 pub use glam;
@@ -49,3 +50,4 @@ pub use lut::{Cdrf, CdrfLut, CurvatureAxis, Filter, ViewCorrection};
 pub use lut_file::{read_lut, write_lut};
 pub use mesh::{LoadError, Mesh, RepairReport};
 pub use scene::{Scene, SceneAssets};
+pub use translucency::{Translucency, TransmissionProfile};

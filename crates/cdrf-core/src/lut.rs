@@ -38,6 +38,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::catmull_rom::{self, Ends};
+use crate::translucency::Translucency;
 
 /// A curvature-dependent reflectance function f(κ, θ).
 ///
@@ -275,6 +276,7 @@ pub struct CdrfLut {
     radiance: Vec<Vec3>,
     view_correction: ViewCorrection,
     coverage: Option<Vec<TexelCoverage>>,
+    translucency: Option<Translucency>,
     provenance: BTreeMap<String, String>,
 }
 
@@ -309,6 +311,7 @@ impl CdrfLut {
             radiance,
             view_correction: ViewCorrection::identity(),
             coverage: None,
+            translucency: None,
             provenance: BTreeMap::new(),
         })
     }
@@ -368,6 +371,19 @@ impl CdrfLut {
         }
         self.coverage = Some(coverage);
         Ok(self)
+    }
+
+    /// Attaches the material's non-local terms (scattering length, transmission profile),
+    /// measured with the table. See [`crate::translucency`].
+    pub fn with_translucency(mut self, translucency: Translucency) -> Self {
+        self.translucency = Some(translucency);
+        self
+    }
+
+    /// The material's non-local terms, when the table carries them (format version 2 files
+    /// written by cdrf-fit do; older files and tabulated models do not).
+    pub fn translucency(&self) -> Option<&Translucency> {
+        self.translucency.as_ref()
     }
 
     /// Records where the table came from (tool, input folder, date, …). Stored in the file.

@@ -1,6 +1,6 @@
 //! The LUT file: an OpenEXR any image tool can open.
 //!
-//! # Layout (format version 1)
+//! # Layout (format version 2)
 //! A multi-part OpenEXR file, 32-bit float, lossless (ZIP) compression:
 //!
 //! | part (layer name) | size (width × height) | channels | content |
@@ -22,6 +22,11 @@
 //! | `cdrf.view_axes` | text | `phi uniform [0, pi/2] columns x theta uniform [0, pi] rows` |
 //! | `cdrf.radiance` | text | `pi*L/E (white Lambertian = max(cos theta, 0))` |
 //! | `cdrf.provenance.KEY` | text | one per provenance entry (UTF-8) |
+//! | `cdrf.scattering_length_mm` | v3f | version 2, optional: [`Translucency::scattering_length_mm`] (R, G, B) |
+//! | `cdrf.transmission.amplitude`, `cdrf.transmission.length_mm` | v3f | version 2, optional: T(d) = A·exp(−d/ℓ), [`TransmissionProfile`] |
+//!
+//! The three translucency attributes come together or not at all. Version 1 files (no
+//! translucency) still load: their table has no [`CdrfLut::translucency`].
 //!
 //! The axis and radiance texts are checked when reading, so a file written under another
 //! convention is refused instead of misread.
@@ -37,9 +42,10 @@ use glam::Vec3;
 use thiserror::Error;
 
 use crate::lut::{CdrfLut, CurvatureAxis, LutError, TexelCoverage, ViewCorrection};
+use crate::translucency::{Translucency, TransmissionProfile};
 
 /// The version this crate writes and the newest it reads.
-pub const FORMAT_VERSION: i32 = 1;
+pub const FORMAT_VERSION: i32 = 2;
 
 const LUT_LAYER: &str = "cdrf.lut";
 const VIEW_LAYER: &str = "cdrf.view";
@@ -53,6 +59,9 @@ const ATTR_THETA_AXIS: &str = "cdrf.theta_axis";
 const ATTR_VIEW_AXES: &str = "cdrf.view_axes";
 const ATTR_RADIANCE: &str = "cdrf.radiance";
 const ATTR_PROVENANCE_PREFIX: &str = "cdrf.provenance.";
+const ATTR_SCATTERING_LENGTH: &str = "cdrf.scattering_length_mm";
+const ATTR_TRANSMISSION_AMPLITUDE: &str = "cdrf.transmission.amplitude";
+const ATTR_TRANSMISSION_LENGTH: &str = "cdrf.transmission.length_mm";
 const CURVATURE_AXIS: &str = "uniform kappa [min, max] mm^-1, rows at the ends";
 const THETA_AXIS: &str = "uniform theta [0, pi] rad, columns at the ends";
 const VIEW_AXES: &str = "phi uniform [0, pi/2] columns x theta uniform [0, pi] rows";
@@ -273,6 +282,31 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
     .map_err(invalid)?;
     lut = lut.with_view_correction(view_correction);
 
+    let vector = |name: &str| match attributes.get(&Text::from(name)) {
+        Some(AttributeValue::FloatVec3((x, y, z))) => Ok(Some([*x, *y, *z])),
+        None => Ok(None),
+        Some(_) => Err(not_ours(format!("`{name}` is not a float vector (v3f)"))),
+    };
+    match (
+        vector(ATTR_SCATTERING_LENGTH)?,
+        vector(ATTR_TRANSMISSION_AMPLITUDE)?,
+        vector(ATTR_TRANSMISSION_LENGTH)?,
+    ) {
+        (Some(scattering_length_mm), Some(amplitude), Some(length_mm)) => {
+            let translucency = TransmissionProfile::new(amplitude, length_mm)
+                .and_then(|t| Translucency::new(scattering_length_mm, t))
+                .map_err(|error| not_ours(format!("translucency: {error}")))?;
+            lut = lut.with_translucency(translucency);
+        }
+        (None, None, None) => {}
+        _ => {
+            return Err(not_ours(format!(
+                "`{ATTR_SCATTERING_LENGTH}`, `{ATTR_TRANSMISSION_AMPLITUDE}` and \
+                 `{ATTR_TRANSMISSION_LENGTH}` must come together"
+            )));
+        }
+    }
+
     let mut provenance: Vec<(String, String)> = attributes
         .iter()
         .filter_map(|(name, value)| {
@@ -336,6 +370,21 @@ fn lut_layer(lut: &CdrfLut) -> Layer<AnyChannels<FlatSamples>> {
         Text::from(ATTR_CURVATURE_MAX),
         AttributeValue::F32(axis.max_per_mm),
     );
+    if let Some(translucency) = lut.translucency() {
+        let vector = |[x, y, z]: [f32; 3]| AttributeValue::FloatVec3((x, y, z));
+        other.insert(
+            Text::from(ATTR_SCATTERING_LENGTH),
+            vector(translucency.scattering_length_mm),
+        );
+        other.insert(
+            Text::from(ATTR_TRANSMISSION_AMPLITUDE),
+            vector(translucency.transmission.amplitude),
+        );
+        other.insert(
+            Text::from(ATTR_TRANSMISSION_LENGTH),
+            vector(translucency.transmission.length_mm),
+        );
+    }
     Layer::new(
         (lut.theta_count(), axis.count),
         attributes,

@@ -233,3 +233,60 @@ fn a_failed_write_leaves_the_old_file_untouched() {
         "temporary file left behind"
     );
 }
+
+fn wax_like_translucency() -> cdrf_core::Translucency {
+    let transmission =
+        cdrf_core::TransmissionProfile::new([0.3, 0.2, 0.1], [12.0, 8.0, 5.5]).unwrap();
+    cdrf_core::Translucency::new([5.4, 5.1, 4.9], transmission).unwrap()
+}
+
+#[test]
+fn translucency_round_trips() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("measured.exr");
+    let lut = fitted_like_table().with_translucency(wax_like_translucency());
+    write_lut(&lut, &path).unwrap();
+    let back = read_lut(&path).unwrap();
+    assert_eq!(back.translucency(), Some(&wax_like_translucency()));
+    assert_eq!(back, lut);
+}
+
+/// `fixtures/lut-v1.exr` is the bundled wax fit as format version 1 wrote it (before
+/// translucency): it must keep loading, without translucency.
+#[test]
+fn a_version_1_file_still_loads() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/lut-v1.exr");
+    let lut = read_lut(&path).unwrap();
+    assert_eq!(lut.translucency(), None);
+    assert_eq!(lut.curvature_axis().count, 64);
+    assert!(lut.coverage().is_some());
+    // Lit side of the r = 15 mm row is bright, its far shadow side dim but not black.
+    let row = lut.row(lut.curvature_axis().count - 1);
+    assert!(row[0].x > 0.5 && row[row.len() - 1].x > 0.0);
+}
+
+#[test]
+fn translucency_attributes_come_together() {
+    use exr::prelude::{AttributeValue, Text};
+    let (_dir, path) = tampered(|a| {
+        a.other.insert(
+            Text::from("cdrf.scattering_length_mm"),
+            AttributeValue::FloatVec3((5.0, 5.0, 5.0)),
+        );
+    });
+    let error = read_lut(&path).unwrap_err();
+    assert!(error.to_string().contains("must come together"), "{error}");
+
+    let (_dir, path) = tampered(|a| {
+        for (name, value) in [
+            ("cdrf.scattering_length_mm", (5.0, 5.0, 5.0)),
+            ("cdrf.transmission.amplitude", (0.1, 0.1, 0.1)),
+            ("cdrf.transmission.length_mm", (10.0, -1.0, 10.0)),
+        ] {
+            a.other
+                .insert(Text::from(name), AttributeValue::FloatVec3(value));
+        }
+    });
+    let error = read_lut(&path).unwrap_err();
+    assert!(error.to_string().contains("transmission length"), "{error}");
+}

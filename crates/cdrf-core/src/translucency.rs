@@ -1,0 +1,173 @@
+//! What a CDRF cannot see: light blocked by, or travelling through, *other* parts of an object.
+//!
+//! A CDRF is local: at each point it knows the curvature κ and the light angle θ, so it answers
+//! as if the point lay on its **osculating sphere** (radius 1/κ). On that sphere light reaching a
+//! shadow-side point has crossed the chord `2·cos(θ − π)/κ` of material ([`local_chord_mm`]); the
+//! measured table already holds that glow. A renderer with a shadow map knows the real distance
+//! `d` light travels from the first surface it meets to the point, and corrects the CDRF where
+//! the object differs from the osculating sphere (see `shaders/cdrf.wgsl`):
+//! - **translucent visibility**: where an occluder lies nearer the light than the osculating
+//!   sphere explains (a cast shadow), the CDRF term is attenuated. The edge is not sharp: light
+//!   diffuses under it, so the test is averaged over a Gaussian footprint whose width is the
+//!   material's [`Translucency::scattering_length_mm`];
+//! - **transmission**: light that crossed `d` mm of material arrives as `E/π · T(d) · g`, with the
+//!   profile `T(d) = A·exp(−d/ℓ)` ([`TransmissionProfile`]); it replaces the CDRF where the point
+//!   is in a cast shadow and adds `T(d) − T(d_local)` where the object is thinner than the
+//!   osculating sphere (ears, fins, slabs lit from behind).
+//!
+//! Both terms are measured from the same sphere photographs as the table (cdrf-fit): the
+//! scattering length is the width of the terminator (Kubo's σ, a length in mm), and T(d) is the
+//! shadow-side glow of the spheres against the chord each point's light crossed. Values follow
+//! the table's radiance convention, π·L/E.
+
+use glam::Vec3;
+use thiserror::Error;
+
+/// Light through `thickness_mm` of material: `T(d) = amplitude · exp(−d / length_mm)` per RGB
+/// channel, π·L/E (radiance `L = E/π · T(d) · g(θ, φ)`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TransmissionProfile {
+    /// T(0) per channel, π·L/E.
+    pub amplitude: [f32; 3],
+    /// Decay length ℓ per channel, mm.
+    pub length_mm: [f32; 3],
+}
+
+impl TransmissionProfile {
+    /// A validated profile.
+    ///
+    /// # Errors
+    /// When an amplitude is negative or not finite, or a length is not finite and > 0.
+    pub fn new(amplitude: [f32; 3], length_mm: [f32; 3]) -> Result<Self, TranslucencyError> {
+        let profile = Self {
+            amplitude,
+            length_mm,
+        };
+        profile.validate()?;
+        Ok(profile)
+    }
+
+    /// T(d) per channel, π·L/E. Negative thicknesses count as 0.
+    pub fn evaluate(&self, thickness_mm: f32) -> Vec3 {
+        let d = thickness_mm.max(0.0);
+        Vec3::from_array(std::array::from_fn(|c| {
+            self.amplitude[c] * (-d / self.length_mm[c]).exp()
+        }))
+    }
+
+    fn validate(&self) -> Result<(), TranslucencyError> {
+        for c in 0..3 {
+            let (a, l) = (self.amplitude[c], self.length_mm[c]);
+            if !(a.is_finite() && a >= 0.0) {
+                return Err(TranslucencyError::BadValue {
+                    what: "transmission amplitude",
+                    value: a,
+                });
+            }
+            if !(l.is_finite() && l > 0.0) {
+                return Err(TranslucencyError::BadValue {
+                    what: "transmission length (mm)",
+                    value: l,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The non-local terms of a translucent material, stored with its measured table.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Translucency {
+    /// How far light spreads sideways under the surface, per RGB channel, mm: the standard
+    /// deviation of the Gaussian footprint that softens a cast shadow's edge.
+    pub scattering_length_mm: [f32; 3],
+    /// Light through material.
+    pub transmission: TransmissionProfile,
+}
+
+impl Translucency {
+    /// Validated terms.
+    ///
+    /// # Errors
+    /// When a length is not finite and > 0 or the profile is invalid.
+    pub fn new(
+        scattering_length_mm: [f32; 3],
+        transmission: TransmissionProfile,
+    ) -> Result<Self, TranslucencyError> {
+        for value in scattering_length_mm {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(TranslucencyError::BadValue {
+                    what: "scattering length (mm)",
+                    value,
+                });
+            }
+        }
+        transmission.validate()?;
+        Ok(Self {
+            scattering_length_mm,
+            transmission,
+        })
+    }
+}
+
+/// The material light has crossed to reach a point of the osculating sphere (radius 1/κ) whose
+/// normal makes the angle θ with the light, mm: `−2·cos θ / κ` on the shadow side, 0 on the lit
+/// side. Flat or concave points (κ ≤ 0) facing away from the light lie under a half-space of
+/// material: infinite.
+pub fn local_chord_mm(curvature_per_mm: f32, cos_theta: f32) -> f32 {
+    if cos_theta >= 0.0 {
+        0.0
+    } else if curvature_per_mm <= 0.0 {
+        f32::INFINITY
+    } else {
+        -2.0 * cos_theta / curvature_per_mm
+    }
+}
+
+/// Why translucency terms are invalid.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum TranslucencyError {
+    /// A value out of range.
+    #[error("{what} is {value}: must be finite and positive")]
+    BadValue {
+        /// Which value.
+        what: &'static str,
+        /// The offending value.
+        value: f32,
+    },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chord_of_the_osculating_sphere() {
+        // Opposite the light on a 20 mm sphere: the whole diameter.
+        assert!((local_chord_mm(1.0 / 20.0, -1.0) - 40.0).abs() < 1e-4);
+        assert_eq!(local_chord_mm(1.0 / 20.0, 0.3), 0.0);
+        assert_eq!(local_chord_mm(0.0, -0.5), f32::INFINITY);
+        assert_eq!(local_chord_mm(-0.1, -0.5), f32::INFINITY);
+    }
+
+    #[test]
+    fn profile_decays_by_e_per_length() {
+        let t = TransmissionProfile::new([0.2, 0.1, 0.05], [10.0, 5.0, 2.0]).unwrap();
+        let at_0 = t.evaluate(0.0);
+        let at_10 = t.evaluate(10.0);
+        assert!((at_0.x - 0.2).abs() < 1e-6);
+        assert!((at_10.x / at_0.x - (-1.0f32).exp()).abs() < 1e-5);
+        assert!((at_10.y / at_0.y - (-2.0f32).exp()).abs() < 1e-5);
+        assert_eq!(t.evaluate(-3.0), at_0);
+    }
+
+    #[test]
+    fn rejects_bad_values() {
+        assert!(TransmissionProfile::new([-0.1, 0.0, 0.0], [1.0; 3]).is_err());
+        assert!(TransmissionProfile::new([0.1; 3], [1.0, 0.0, 1.0]).is_err());
+        let t = TransmissionProfile::new([0.1; 3], [1.0; 3]).unwrap();
+        assert!(Translucency::new([1.0, f32::NAN, 1.0], t).is_err());
+        assert!(Translucency::new([1.0; 3], t).is_ok());
+    }
+}
