@@ -9,10 +9,22 @@
 //   0: frame    camera, lights
 //   1: material LUT, view correction, model parameters
 //   2: draw     model transform (dynamic offset)
-// Group 3 is left free for per-light shadow maps.
+//   3: shadows  per-light light-space transforms and shadow maps (first-surface depth)
 //
-// The shading model and the LUT filtering are pipeline-overridable constants, so each pipeline
-// compiles to one straight-line shader.
+// The shading model, the LUT filtering and the non-local terms are pipeline-overridable
+// constants, so each pipeline compiles to one straight-line shader.
+//
+// Non-local terms (NON_LOCAL; see crates/cdrf-core/src/translucency.rs). The CDRF answers as if
+// the point lay on its osculating sphere (radius 1/κ, centre p − n/κ). For each shadow-map texel
+// around the point we compare the first surface the light meets with the one that sphere (or,
+// for flat and concave points, the tangent plane) predicts in that column:
+//   - nearer the light than predicted: the column is occluded by something the CDRF does not
+//     know (a cast shadow). Visibility V is the Gaussian-weighted share of unoccluded columns,
+//     σ = the material's scattering length per channel, so the shadow edge is soft;
+//   - transmission: light of occluded columns arrives through d mm of the occluder (light-space
+//     depth difference) as T(d); where the point's own column is thinner than the sphere
+//     predicts (a fin, a slab lit from behind) T(d) − T(d_sphere) is added.
+// Per light: f → V·f (shadows) + T_occluded + T_thin (transmission), all times g(θ, φ).
 
 const PI: f32 = 3.14159265358979;
 const FRAC_1_PI: f32 = 0.318309886183791;
@@ -20,6 +32,14 @@ const FRAC_2_PI: f32 = 0.636619772367581;
 const FRAC_PI_2: f32 = 1.5707963267949;
 const FRAC_1_SQRT_TAU: f32 = 0.398942280401433;
 const MAX_LIGHTS: u32 = 16u;
+const MAX_SHADOW_LIGHTS: u32 = 4u;
+// Columns read per point and shadowed light when the penumbra is wider than a texel: the centre
+// and a Vogel spiral out to 2σ.
+const PENUMBRA_TAPS: u32 = 12u;
+const GOLDEN_ANGLE: f32 = 2.39996322972865;
+// Principal curvatures may differ from the mean curvature the mesh carries (saddles, cylinders):
+// an occluder counts only if it is nearer the light than this much extra curvature explains.
+const CURVATURE_ALLOWANCE_PER_MM: f32 = 0.05;
 
 // Shading models (MODEL).
 const MODEL_MEASURED: u32 = 0u;
@@ -33,6 +53,10 @@ override MODEL: u32 = 0u;
 override MANUAL_FILTERING: bool = false;
 // true when the target is an 8-bit UNORM format that is not sRGB: encode in the shader.
 override ENCODE_SRGB: bool = false;
+// Bit 0: translucent visibility (shadow maps); bit 1: transmission. 0: the poster's local model.
+override NON_LOCAL: u32 = 0u;
+const NON_LOCAL_SHADOWS: u32 = 1u;
+const NON_LOCAL_TRANSMISSION: u32 = 2u;
 
 struct Light {
     // Unit vector toward the light, world space (w unused).
@@ -62,6 +86,26 @@ struct Material {
     view_axis: vec4<f32>,
     // Curvature view: κ mapped to the colour map's ends (mm⁻¹).
     curvature_range: vec4<f32>,
+    // Penumbra width σ per channel, mm (0: opaque, a hard shadow edge).
+    scattering_length_mm: vec4<f32>,
+    // T(d) = amplitude · exp(−d / length), π·L/E and mm per channel (amplitude 0: none).
+    transmission_amplitude: vec4<f32>,
+    transmission_length_mm: vec4<f32>,
+}
+
+struct ShadowLight {
+    // World → light space, world units: x, y across the light, z along it (0 at the map's
+    // light-side plane, growing away from the light). Rotation and translation only.
+    light_from_world: mat4x4<f32>,
+    // x: half the map's side, y: depth range (stored depth 1), world units.
+    extent: vec4<f32>,
+}
+
+struct Shadows {
+    lights: array<ShadowLight, MAX_SHADOW_LIGHTS>,
+    // x: mm per world unit, y: depth bias (mm), z: map resolution (texels per side),
+    // w: number of lights with a map (the first ones of the frame).
+    params: vec4<f32>,
 }
 
 struct Draw {
@@ -78,6 +122,8 @@ struct Draw {
 @group(1) @binding(2) var view_correction: texture_2d<f32>;
 @group(1) @binding(3) var lut_sampler: sampler;
 @group(2) @binding(0) var<uniform> draw: Draw;
+@group(3) @binding(0) var<uniform> shadows: Shadows;
+@group(3) @binding(1) var shadow_maps: texture_depth_2d_array;
 
 struct VertexIn {
     @location(0) position: vec3<f32>,
@@ -282,6 +328,126 @@ fn angle(cosine: f32) -> f32 {
     return select(r, PI - r, x < 0.0);
 }
 
+struct NonLocalTerms {
+    // Share of the light the CDRF term keeps, per channel.
+    visibility: vec3<f32>,
+    // Light through material the CDRF does not see, π·L/E.
+    transmission: vec3<f32>,
+}
+
+fn transmission_profile(thickness_mm: f32) -> vec3<f32> {
+    return material.transmission_amplitude.xyz
+        * exp(-max(thickness_mm, 0.0) / material.transmission_length_mm.xyz);
+}
+
+// See the header: compare the shadow map of light `index` around the point with the osculating
+// sphere (or tangent plane) of the point.
+fn non_local_terms(
+    index: u32,
+    world_position: vec3<f32>,
+    normal: vec3<f32>,
+    curvature_per_mm: f32,
+) -> NonLocalTerms {
+    let shadow = shadows.lights[index];
+    let mm = shadows.params.x;
+    let resolution = shadows.params.z;
+    let p = (shadow.light_from_world * vec4<f32>(world_position, 1.0)).xyz * mm;
+    let n = (shadow.light_from_world * vec4<f32>(normal, 0.0)).xyz;
+    let half_extent_mm = shadow.extent.x * mm;
+    let depth_range_mm = shadow.extent.y * mm;
+    let texel_mm = 2.0 * half_extent_mm / resolution;
+    let curved = curvature_per_mm > 1e-3;
+    let radius_mm = 1.0 / max(curvature_per_mm, 1e-3);
+    let centre = p - n * radius_mm;
+    let sigma = material.scattering_length_mm.xyz;
+    let sigma_max = max(sigma.x, max(sigma.y, sigma.z));
+    var taps = 1u;
+    if sigma_max > texel_mm {
+        taps = PENUMBRA_TAPS;
+    }
+    // The footprint lies on the surface (tangent plane), not across the light: at grazing light
+    // a step along the surface moves little across the light.
+    var helper = vec3<f32>(0.0, 0.0, 1.0);
+    if abs(n.z) > 0.9 {
+        helper = vec3<f32>(1.0, 0.0, 0.0);
+    }
+    let tangent = normalize(cross(helper, n));
+    let bitangent = cross(n, tangent);
+    var unoccluded = vec3<f32>(0.0);
+    var through = vec3<f32>(0.0);
+    var weights = vec3<f32>(0.0);
+    var thin = vec3<f32>(0.0);
+    for (var k = 0u; k < taps; k++) {
+        // Tap k of a Vogel spiral over the disc of radius 2σ on the tangent plane (tap 0 at the
+        // centre), moved onto the local shape: `surface`, with normal `facing`.
+        let radius = 2.0 * sigma_max * sqrt(f32(k) / f32(PENUMBRA_TAPS));
+        let angle = f32(k) * GOLDEN_ANGLE;
+        var surface = p + radius * (cos(angle) * tangent + sin(angle) * bitangent);
+        var facing = n;
+        if curved {
+            facing = normalize(surface - centre);
+            surface = centre + radius_mm * facing;
+        }
+        // The first surface the local shape puts in this column: the tap itself where it faces
+        // the light, else the near end of the shape's chord through it (none for a plane).
+        var expected = surface.z;
+        if facing.z > 0.0 {
+            if curved {
+                expected = surface.z - 2.0 * radius_mm * facing.z;
+            } else {
+                expected = -1e30;
+            }
+        }
+        let uv = vec2<f32>(0.5, 0.5) + vec2<f32>(0.5, -0.5) * surface.xy / half_extent_mm;
+        let texel = vec2<i32>(floor(uv * resolution));
+        var occluder = depth_range_mm;
+        if all(texel >= vec2<i32>(0)) && all(texel < vec2<i32>(i32(resolution))) {
+            occluder = textureLoad(shadow_maps, texel, i32(index), 0) * depth_range_mm;
+        }
+        // Allowed mismatch: the bias, plus (half a texel across the light, and the shape's sag
+        // if its principal curvatures differ from the mean by up to CURVATURE_ALLOWANCE) turned
+        // into depth by the surface's slope — at most σ + 4 texels, so grazing light still
+        // sees occluders farther away than the penumbra is wide.
+        let sag = 0.5 * radius * radius * (abs(curvature_per_mm) + CURVATURE_ALLOWANCE_PER_MM);
+        let across = 0.5 * texel_mm * length(facing.xy) + sag;
+        let tolerance = shadows.params.y
+            + min(across / max(abs(facing.z), 1e-3), sigma_max + 4.0 * texel_mm);
+        // No surface where the local shape puts one (the tangent plane reaching over a hole or
+        // past an edge): this column says nothing about the light near the point.
+        if k > 0u && expected > -1e29 && occluder > expected + tolerance {
+            continue;
+        }
+        var weight = vec3<f32>(1.0);
+        if taps > 1u {
+            weight = exp(-0.5 * radius * radius / max(sigma * sigma, vec3<f32>(1e-6)));
+        }
+        weights += weight;
+        if occluder < expected - tolerance {
+            if (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u {
+                through += weight * transmission_profile(surface.z - occluder);
+            }
+        } else {
+            unoccluded += weight;
+            if k == 0u && (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u {
+                thin = max(
+                    transmission_profile(p.z - occluder + tolerance)
+                        - transmission_profile(p.z - expected),
+                    vec3<f32>(0.0),
+                );
+            }
+        }
+    }
+    var terms: NonLocalTerms;
+    terms.visibility = unoccluded / weights;
+    // T(d) is measured on the spheres at θ ≥ 110°; nearer the terminator sideways diffusion
+    // (the CDRF) dominates, so the thin-part term fades in from θ = 90° to 110°.
+    terms.transmission = thin * smoothstep(0.0, 0.342, n.z);
+    if (NON_LOCAL & NON_LOCAL_SHADOWS) != 0u {
+        terms.transmission += through / weights;
+    }
+    return terms;
+}
+
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     let normal = normalize(in.world_normal);
@@ -299,16 +465,23 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         for (var i = 0u; i < light_count; i++) {
             let light = frame.lights[i];
             let cos_theta = dot(normal, light.to_light.xyz);
+            let theta = angle(cos_theta);
             var f: vec3<f32>;
             if MODEL == MODEL_LAMBERT {
                 f = material.albedo_or_scale.xyz * max(cos_theta, 0.0);
+            } else if MODEL == MODEL_GAUSSIAN_ANALYTIC {
+                f = gaussian_analytic(in.curvature_per_mm, theta);
             } else {
-                let theta = angle(cos_theta);
-                if MODEL == MODEL_GAUSSIAN_ANALYTIC {
-                    f = gaussian_analytic(in.curvature_per_mm, theta);
-                } else {
-                    f = lut_value(in.curvature_per_mm, theta);
+                f = lut_value(in.curvature_per_mm, theta);
+            }
+            if NON_LOCAL != 0u && i < u32(shadows.params.w) {
+                let terms = non_local_terms(i, in.world_position, normal, in.curvature_per_mm);
+                if (NON_LOCAL & NON_LOCAL_SHADOWS) != 0u {
+                    f *= terms.visibility;
                 }
+                f += terms.transmission;
+            }
+            if MODEL != MODEL_LAMBERT {
                 f *= view_value(theta, phi);
             }
             radiance += light.irradiance.rgb * FRAC_1_PI * f;

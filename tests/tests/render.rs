@@ -9,7 +9,7 @@ use std::sync::OnceLock;
 
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::RgbaImage;
-use cdrf_core::scene::{Material, Scene, SceneAssets};
+use cdrf_core::scene::{Material, NonLocal, Scene, SceneAssets};
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
 use cdrf_render::{Options, wgpu};
 use cdrf_tests::data_dir;
@@ -306,6 +306,8 @@ fn render_unorm(scene: &Scene, assets: &SceneAssets) -> Srgb8Image {
                 lights: &scene.lights,
                 exposure: 1.0,
                 draws: &draws,
+                non_local: NonLocal::OFF,
+                mm_per_world_unit: 1.0,
             },
         )
         .unwrap();
@@ -789,6 +791,8 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
         lights,
         exposure: 1.0,
         draws: &draws,
+        non_local: NonLocal::OFF,
+        mm_per_world_unit: 1.0,
     };
     renderer.prepare(device, queue, &frame(&ONE_LIGHT)).unwrap();
     let drawn = lit_bytes(&draw_into(&renderer, format));
@@ -827,6 +831,8 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
         lights: &ONE_LIGHT,
         exposure: 1.0,
         draws: &draws,
+        non_local: NonLocal::OFF,
+        mm_per_world_unit: 1.0,
     };
     renderer.prepare(device, queue, &frame).unwrap();
     let srgb = draw_into(&renderer, format);
@@ -944,6 +950,8 @@ fn prepare_rejects_unusable_input() {
         lights: &ONE_LIGHT,
         exposure,
         draws,
+        non_local: NonLocal::OFF,
+        mm_per_world_unit: 1.0,
     };
     renderer
         .prepare(device, queue, &frame(view, 1.0, &ok))

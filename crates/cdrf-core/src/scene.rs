@@ -31,7 +31,12 @@
 //! # gaussian = "out/gaussian.toml"        # model = "gaussian": cdrf-fit's fitted parameters
 //! # albedo = [0.8, 0.8, 0.8]              # model = "lambert" (default 1)
 //! # curvature_range_per_mm = [-0.1, 0.1]  # model = "curvature" (default ±max |κ| of the mesh)
+//! shadows = false               # optional: translucent visibility from shadow maps (default false)
+//! transmission = false          # optional: light through thin parts, T(d) (default false)
 //! ```
+//!
+//! `shadows` and `transmission` are the non-local terms ([`NonLocal`], see
+//! [`crate::translucency`]); both off is the poster's local model.
 //!
 //! # Units
 //! World units are the mesh's units; one is `mm_per_unit` millimetres. The model transform's
@@ -68,6 +73,33 @@ pub struct Scene {
     pub lights: Vec<DirectionalLight>,
     /// The shading model.
     pub shading: ShadingSpec,
+    /// The non-local terms (`[shading] shadows`, `transmission`).
+    pub non_local: NonLocal,
+}
+
+/// Which non-local terms a render adds to the CDRF (see [`crate::translucency`]). The default,
+/// both off, is the poster's local model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct NonLocal {
+    /// Translucent visibility: cast shadows from shadow maps, with a penumbra as wide as the
+    /// material's scattering length.
+    pub shadows: bool,
+    /// Transmission: light through parts thinner than the CDRF assumes, and (with `shadows`)
+    /// through occluders, by the material's T(d).
+    pub transmission: bool,
+}
+
+impl NonLocal {
+    /// Neither term: the poster's local model.
+    pub const OFF: Self = Self {
+        shadows: false,
+        transmission: false,
+    };
+
+    /// Whether any term is on.
+    pub fn any(self) -> bool {
+        self.shadows || self.transmission
+    }
 }
 
 /// The mesh of a scene.
@@ -386,6 +418,10 @@ struct RawShading {
     gaussian: Option<PathBuf>,
     albedo: Option<[f32; 3]>,
     curvature_range_per_mm: Option<[f32; 2]>,
+    #[serde(default)]
+    shadows: bool,
+    #[serde(default)]
+    transmission: bool,
 }
 
 fn one() -> f32 {
@@ -666,6 +702,10 @@ impl Scene {
             camera,
             lights,
             shading,
+            non_local: NonLocal {
+                shadows: s.shadows,
+                transmission: s.transmission,
+            },
         })
     }
 

@@ -2,7 +2,10 @@
 //! 1024 × 1024 (4× MSAA, depth), N timed frames per model after a warm-up, rounds interleaved
 //! so drift in machine load hits every model alike. Prints ms/frame (the fastest round, whose
 //! mean is least disturbed by other load; the median beside it) and
-//! the ratios the product promises: measured ≤ 1.15 × Lambert and ≤ 1.02 × Gaussian.
+//! the ratios the product promises: measured ≤ 1.15 × Lambert and ≤ 1.02 × Gaussian, and the
+//! non-local terms (shadow pass included) ≤ 1.5 × the poster's measured model. "no penumbra"
+//! (one shadow-map read per light: the table without its translucency terms) separates the
+//! shadow pass's cost from the penumbra's.
 //!
 //! ```text
 //! cargo bench -p cdrf-render --bench frame                 # software adapter (lavapipe)
@@ -16,8 +19,8 @@ use std::path::PathBuf;
 use cdrf_core::gaussian_file::read_gaussian;
 use cdrf_core::glam::Vec3;
 use cdrf_core::scene::{
-    Camera, DirectionalLight, Material, MeshSpec, ModelTransform, Projection, Scene, SceneAssets,
-    ShadingSpec,
+    Camera, DirectionalLight, Material, MeshSpec, ModelTransform, NonLocal, Projection, Scene,
+    SceneAssets, ShadingSpec,
 };
 use cdrf_core::{CurvatureOptions, Mesh, mean_curvature_per_mm, read_lut};
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
@@ -29,6 +32,7 @@ struct Variant {
     name: &'static str,
     material: Material,
     options: Options,
+    non_local: NonLocal,
 }
 
 fn main() -> Result<(), Box<dyn Error>> {
@@ -55,18 +59,38 @@ fn main() -> Result<(), Box<dyn Error>> {
     let lut = read_lut(root.join("wax-fit/measured.exr"))?;
     let gaussian_path = root.join("wax-fit/gaussian.toml");
     let (gaussian, view_correction) = read_gaussian(&gaussian_path)?.load_model(&gaussian_path)?;
+    if lut.translucency().is_none() {
+        return Err("the bundled measured.exr carries no translucency terms: refit it".into());
+    }
+    // The same table without its scattering length and T(d): hard shadows, one read per light.
+    let opaque_lut = cdrf_core::CdrfLut::new(
+        lut.curvature_axis(),
+        lut.theta_count(),
+        lut.radiance().to_vec(),
+    )?
+    .with_view_correction(lut.view_correction().clone());
     let variants = || {
         let fast = Options::default();
+        let shadows = NonLocal {
+            shadows: true,
+            transmission: false,
+        };
+        let both = NonLocal {
+            shadows: true,
+            transmission: true,
+        };
         vec![
             Variant {
                 name: "lambert",
                 material: Material::Lambert { albedo: [0.8; 3] },
                 options: fast,
+                non_local: NonLocal::OFF,
             },
             Variant {
                 name: "measured",
                 material: Material::Measured(lut.clone()),
                 options: fast,
+                non_local: NonLocal::OFF,
             },
             Variant {
                 name: "measured (manual filtering)",
@@ -75,6 +99,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                     lut_filtering: LutFiltering::Manual,
                     ..fast
                 },
+                non_local: NonLocal::OFF,
             },
             Variant {
                 name: "gaussian (LUT)",
@@ -83,6 +108,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                     view_correction: view_correction.clone(),
                 },
                 options: fast,
+                non_local: NonLocal::OFF,
             },
             Variant {
                 name: "gaussian (analytic)",
@@ -94,6 +120,25 @@ fn main() -> Result<(), Box<dyn Error>> {
                     gaussian: GaussianEvaluation::Analytic,
                     ..fast
                 },
+                non_local: NonLocal::OFF,
+            },
+            Variant {
+                name: "measured + shadows",
+                material: Material::Measured(lut.clone()),
+                options: fast,
+                non_local: shadows,
+            },
+            Variant {
+                name: "measured + shadows + transm.",
+                material: Material::Measured(lut.clone()),
+                options: fast,
+                non_local: both,
+            },
+            Variant {
+                name: "measured + shadows, no penumbra",
+                material: Material::Measured(opaque_lut.clone()),
+                options: fast,
+                non_local: shadows,
             },
         ]
     };
@@ -134,6 +179,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                 irradiance: [1.0; 3],
             }],
             shading,
+            non_local: NonLocal::OFF,
         };
         let variants = variants();
         let mut times = vec![Vec::new(); variants.len()];
@@ -151,7 +197,8 @@ fn main() -> Result<(), Box<dyn Error>> {
                     warm_up_frames: 2,
                 };
                 // The shading spec is not read by render_scene (the assets carry the material).
-                let scene = scene(ShadingSpec::Lambert { albedo: [1.0; 3] });
+                let mut scene = scene(ShadingSpec::Lambert { albedo: [1.0; 3] });
+                scene.non_local = variant.non_local;
                 let rendered = render_scene(&device, &scene, &assets, &settings)?;
                 times.push(rendered.ms_per_frame.ok_or("no timing")?);
             }
@@ -165,7 +212,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             let spread = times.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
                 - times.iter().cloned().fold(f64::INFINITY, f64::min);
             println!(
-                "  {:<28} {best:8.2} ms/frame  (fastest round; median {:.2}, spread {spread:.2} ms)",
+                "  {:<31} {best:8.2} ms/frame  (fastest round; median {:.2}, spread {spread:.2} ms)",
                 variant.name,
                 median_of(times)
             );
@@ -193,6 +240,24 @@ fn main() -> Result<(), Box<dyn Error>> {
             (
                 "manual / hardware filtering",
                 "measured (manual filtering)",
+                "measured",
+                "",
+            ),
+            (
+                "shadows / measured",
+                "measured + shadows",
+                "measured",
+                " (goal ≤ 1.5)",
+            ),
+            (
+                "shadows + transm. / measured",
+                "measured + shadows + transm.",
+                "measured",
+                " (goal ≤ 1.5)",
+            ),
+            (
+                "no penumbra / measured",
+                "measured + shadows, no penumbra",
                 "measured",
                 "",
             ),

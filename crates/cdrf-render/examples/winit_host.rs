@@ -16,7 +16,8 @@
 //! (the bunny is 9.66 units, 97 mm, tall), else 1.
 //! Keys: `1` measured CDRF, `2` Gaussian CDRF, `3` Lambert, `4` curvature (blue concave, red
 //! convex); `←`/`→` move the light around the vertical axis, `↑`/`↓` raise and lower it (either
-//! stops the rotation), `Space` starts or stops the rotation, `M` toggles 4× MSAA, `Esc` quits.
+//! stops the rotation), `Space` starts or stops the rotation, `M` toggles 4× MSAA, `S` cast
+//! shadows and `T` transmission (the non-local terms), `Esc` quits.
 //! The title shows the model, the shading, the sample count and the time per frame.
 //!
 //! `CDRF_EXIT_AFTER_FRAMES=N` exits cleanly (status 0) after N frames were presented — for
@@ -33,9 +34,11 @@
 //! let wax = renderer.create_material(&device, &queue, &MaterialDesc::Measured { lut: &lut })?;
 //! // Each frame, before your pass: camera, lights, draws.
 //! let draws = [Draw { mesh, material: wax, world_from_model }];
-//! renderer.prepare(&device, &queue, &FrameDesc { view, lights: &lights, exposure: 1.0, draws: &draws })?;
+//! let frame = FrameDesc { view, lights: &lights, exposure: 1.0, draws: &draws, non_local, mm_per_world_unit };
+//! let shadow_pass = renderer.prepare(&device, &queue, &frame)?; // empty unless non_local is on
 //! // Inside your pass (whose attachments match `target`):
 //! renderer.render(&mut pass);
+//! // Submit the shadow pass first: queue.submit(shadow_pass.into_iter().chain([encoder.finish()]));
 //! // When your pass changes format or sample count: renderer.set_target(&new_target);
 //! ```
 //! Everything else here is ordinary winit/wgpu plumbing (see `Gpu::draw_frame`).
@@ -51,7 +54,7 @@ use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::gaussian_file::read_gaussian;
 use cdrf_core::glam::Vec3;
 use cdrf_core::glam::camera::rh::{proj::directx, view};
-use cdrf_core::scene::DirectionalLight;
+use cdrf_core::scene::{DirectionalLight, NonLocal};
 use cdrf_core::{CdrfLut, CurvatureOptions, Mesh, ViewCorrection, mean_curvature_per_mm, read_lut};
 use cdrf_render::{
     Draw, FrameDesc, MaterialDesc, MaterialId, MeshDesc, MeshId, Options, Renderer, TargetDesc,
@@ -552,6 +555,8 @@ impl Gpu {
         view: View,
         lights: &[DirectionalLight],
         shading: Shading,
+        non_local: NonLocal,
+        mm_per_world_unit: f32,
     ) -> Result<Frame, Failure> {
         let (surface_texture, suboptimal) = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(texture) => (texture, false),
@@ -585,7 +590,9 @@ impl Gpu {
             material: self.materials[shading.index()],
             world_from_model: cdrf_core::glam::Mat4::IDENTITY,
         }];
-        self.renderer
+        // With shadows or transmission on, this returns the shadow pass to submit first.
+        let shadow_pass = self
+            .renderer
             .prepare(
                 &self.device,
                 &self.queue,
@@ -594,6 +601,8 @@ impl Gpu {
                     lights,
                     exposure: 1.0,
                     draws: &draws,
+                    non_local,
+                    mm_per_world_unit,
                 },
             )
             .map_err(|e| Failure::caused("preparing the frame", &e))?;
@@ -634,7 +643,8 @@ impl Gpu {
             // cdrf-render: record into the host's pass.
             self.renderer.render(&mut pass);
         }
-        self.queue.submit([encoder.finish()]);
+        self.queue
+            .submit(shadow_pass.into_iter().chain([encoder.finish()]));
         self.queue.present(surface_texture);
         if suboptimal {
             self.resize();
@@ -714,6 +724,7 @@ struct App {
     /// Set when something failed; `main` returns it after the loop exits.
     failure: Option<Failure>,
     shading: Shading,
+    non_local: NonLocal,
     light: Light,
     last_frame: Option<Instant>,
     frames_presented: u64,
@@ -730,6 +741,7 @@ impl App {
             gpu: None,
             failure: None,
             shading: Shading::Measured,
+            non_local: NonLocal::OFF,
             // Start lit from the left, like the wax photographs.
             light: Light {
                 azimuth_rad: -FRAC_PI_2,
@@ -787,6 +799,10 @@ impl App {
                     gpu.toggle_msaa();
                 }
             }
+            KeyCode::KeyS if !event.repeat => self.non_local.shadows = !self.non_local.shadows,
+            KeyCode::KeyT if !event.repeat => {
+                self.non_local.transmission = !self.non_local.transmission;
+            }
             KeyCode::Escape => event_loop.exit(),
             _ => {}
         }
@@ -817,7 +833,15 @@ impl App {
             to_light: self.light.to_light(),
             irradiance: [PI; 3],
         }];
-        match gpu.draw_frame(view, &lights, self.shading) {
+        // The mesh is drawn in its own units: world units are model units.
+        let mm_per_world_unit = self.config.mm_per_unit;
+        match gpu.draw_frame(
+            view,
+            &lights,
+            self.shading,
+            self.non_local,
+            mm_per_world_unit,
+        ) {
             Ok(Frame::Presented) => {
                 self.frames_presented += 1;
                 self.title_frames += 1;
@@ -830,9 +854,19 @@ impl App {
         if elapsed >= TITLE_INTERVAL && self.title_frames > 0 {
             let ms_per_frame = elapsed.as_secs_f64() * 1e3 / f64::from(self.title_frames);
             gpu.window.set_title(&format!(
-                "cdrf winit_host — {} — {} — {}× MSAA — {ms_per_frame:.1} ms/frame",
+                "cdrf winit_host — {} — {}{}{} — {}× MSAA — {ms_per_frame:.1} ms/frame",
                 self.scene.name,
                 self.shading.name(),
+                if self.non_local.shadows {
+                    " + shadows"
+                } else {
+                    ""
+                },
+                if self.non_local.transmission {
+                    " + transmission"
+                } else {
+                    ""
+                },
                 gpu.target.sample_count,
             ));
             self.title_since = now;

@@ -309,24 +309,30 @@ pub fn render_scene(
         lights: &scene.lights,
         exposure: 1.0,
         draws: &draws,
+        non_local: scene.non_local,
+        mm_per_world_unit: scene.mesh.mm_per_unit,
     };
 
     let targets = OffscreenTarget::new(&device.device, &target, width, height);
-    let render_frame = |renderer: &mut Renderer| -> Result<wgpu::CommandBuffer, HeadlessError> {
-        renderer
-            .prepare(&device.device, &device.queue, &frame)
-            .map_err(HeadlessError::Prepare)?;
-        let mut encoder = device
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("cdrf headless frame"),
-            });
-        {
-            let mut pass = targets.begin_pass(&mut encoder, wgpu::Color::TRANSPARENT);
-            renderer.render(&mut pass);
-        }
-        Ok(encoder.finish())
-    };
+    // The frame's commands: the shadow pass (when a non-local term is on), then the pass.
+    let render_frame =
+        |renderer: &mut Renderer| -> Result<Vec<wgpu::CommandBuffer>, HeadlessError> {
+            let mut commands = renderer
+                .prepare(&device.device, &device.queue, &frame)
+                .map_err(HeadlessError::Prepare)?;
+            let mut encoder =
+                device
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("cdrf headless frame"),
+                    });
+            {
+                let mut pass = targets.begin_pass(&mut encoder, wgpu::Color::TRANSPARENT);
+                renderer.render(&mut pass);
+            }
+            commands.push(encoder.finish());
+            Ok(commands)
+        };
 
     let mut commands = render_frame(&mut renderer)?;
     let mut encoder = device
@@ -335,22 +341,21 @@ pub fn render_scene(
             label: Some("cdrf headless readback"),
         });
     let readback = copy_to_buffer(&targets, &device.device, &mut encoder);
-    device.queue.submit([commands, encoder.finish()]);
+    commands.push(encoder.finish());
+    device.queue.submit(commands);
     let image = readback.read(&device.device)?;
 
     let mut ms_per_frame = None;
     if settings.timed_frames > 0 {
         for _ in 0..settings.warm_up_frames {
-            commands = render_frame(&mut renderer)?;
-            device.queue.submit([commands]);
+            device.queue.submit(render_frame(&mut renderer)?);
             wait(&device.device)?;
         }
         // Frames are submitted back to back and waited for once, as an application's frames
         // overlap: the time is throughput, not the latency of one frame plus a round trip.
         let start = Instant::now();
         for _ in 0..settings.timed_frames {
-            commands = render_frame(&mut renderer)?;
-            device.queue.submit([commands]);
+            device.queue.submit(render_frame(&mut renderer)?);
         }
         wait(&device.device)?;
         ms_per_frame = Some(start.elapsed().as_secs_f64() * 1e3 / f64::from(settings.timed_frames));

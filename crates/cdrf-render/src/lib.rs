@@ -15,7 +15,7 @@
 //!
 //! ```
 //! use cdrf_core::glam::{self, Mat4, Vec3};
-//! use cdrf_core::scene::DirectionalLight;
+//! use cdrf_core::scene::{DirectionalLight, NonLocal};
 //! use cdrf_core::{Mesh, mean_curvature_per_mm, CurvatureOptions};
 //! use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
 //! use cdrf_render::{wgpu, Draw, FrameDesc, MaterialDesc, MeshDesc, Options, Renderer,
@@ -41,7 +41,12 @@
 //! };
 //! let lights = [DirectionalLight { to_light: Vec3::NEG_X, irradiance: [1.0; 3] }];
 //! let draws = [Draw { mesh, material, world_from_model: Mat4::IDENTITY }];
-//! renderer.prepare(device, queue, &FrameDesc { view, lights: &lights, exposure: 1.0, draws: &draws })?;
+//! let frame = FrameDesc {
+//!     view, lights: &lights, exposure: 1.0, draws: &draws,
+//!     non_local: NonLocal::OFF, mm_per_world_unit: 1.0,
+//! };
+//! // The shadow pass's commands (none here: the non-local terms are off).
+//! let shadow_pass = renderer.prepare(device, queue, &frame)?;
 //!
 //! let texture = device.create_texture(&wgpu::TextureDescriptor {
 //!     label: Some("host target"),
@@ -67,7 +72,7 @@
 //!     });
 //!     renderer.render(&mut pass);
 //! }
-//! queue.submit([encoder.finish()]);
+//! queue.submit(shadow_pass.into_iter().chain([encoder.finish()]));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
@@ -76,9 +81,19 @@
 //! command use.
 //!
 //! # Pass structure
-//! Bind groups 0 (frame: camera, lights), 1 (material: LUT, view correction, parameters) and
-//! 2 (draw: transform, dynamic offset) are set inside [`Renderer::render`]; group 3 is free for
-//! per-light shadow maps, which later need one depth pass per light before the host's pass.
+//! Bind groups 0 (frame: camera, lights), 1 (material: LUT, view correction, parameters),
+//! 2 (draw: transform, dynamic offset) and 3 (shadow maps) are set inside [`Renderer::render`].
+//!
+//! # Beyond the poster: cast shadows and transmission
+//! [`FrameDesc::non_local`] turns on translucent visibility (cast shadows with a penumbra as wide
+//! as the material's scattering length) and transmission T(d) (see
+//! [`cdrf_core::translucency`]). Then `prepare` also records a depth-only shadow pass — an
+//! orthographic map per light, for the first [`MAX_SHADOW_LIGHTS`] lights, fitted to the
+//! bounding sphere of the frame's draws ([`Options::shadow_map_resolution`]) — and returns its
+//! command buffer, which the host submits before the commands of its own pass (egui-wgpu's
+//! callbacks return it from their `prepare`). A measured table carries its material terms
+//! (LUT file format version 2); the Gaussian CDRF uses its σ as scattering length and has no
+//! T(d); Lambert gets hard shadows.
 
 mod gpu_data;
 pub mod headless;
@@ -88,8 +103,9 @@ mod target;
 
 pub use offscreen::OffscreenTarget;
 pub use renderer::{
-    Draw, FrameDesc, MAX_LIGHTS, MaterialDesc, MaterialError, MaterialId, MeshDesc, MeshId,
-    MeshUploadError, PrepareError, Renderer, SHADER_SOURCE, ToCamera, View,
+    Draw, FrameDesc, MAX_LIGHTS, MAX_SHADOW_LIGHTS, MaterialDesc, MaterialError, MaterialId,
+    MeshDesc, MeshId, MeshUploadError, PrepareError, Renderer, SHADER_SOURCE, SHADOW_SHADER_SOURCE,
+    ToCamera, View,
 };
 pub use target::{GaussianEvaluation, LutFiltering, Options, TargetDesc};
 /// The wgpu this crate is built against (use it to avoid version mismatches).

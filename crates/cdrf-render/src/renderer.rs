@@ -7,25 +7,34 @@ use std::num::NonZeroU64;
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::glam::{Mat3, Mat4, Vec3, Vec4};
 use cdrf_core::lut::LutError;
-use cdrf_core::scene::DirectionalLight;
+use cdrf_core::scene::{DirectionalLight, NonLocal};
 use cdrf_core::{CdrfLut, CurvatureAxis, Mesh, ViewCorrection};
 use wgpu::util::DeviceExt;
 
 use crate::gpu_data::{Bytes, block_on, rgba16f_texels};
 use crate::target::{GaussianEvaluation, LutFiltering, Options, TargetDesc};
 
-/// The WGSL source of every pipeline (`shaders/cdrf.wgsl`).
+/// The WGSL source of every shading pipeline (`shaders/cdrf.wgsl`).
 pub const SHADER_SOURCE: &str = include_str!("../../../shaders/cdrf.wgsl");
+/// The WGSL source of the shadow pass (`shaders/shadow.wgsl`).
+pub const SHADOW_SHADER_SOURCE: &str = include_str!("../../../shaders/shadow.wgsl");
 
 /// Most directional lights in one frame (`MAX_LIGHTS` in the shader).
 pub const MAX_LIGHTS: usize = 16;
+/// Lights with a shadow map: the first ones of a frame (`MAX_SHADOW_LIGHTS` in the shader). Later
+/// lights shade with the local model only.
+pub const MAX_SHADOW_LIGHTS: usize = 4;
+/// The shadow maps' depth format.
+const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// Size of the `Shadows` uniform: per light a mat4 and a vec4, then the parameters.
+const SHADOWS_UNIFORM_SIZE: u64 = (64 + 16) * MAX_SHADOW_LIGHTS as u64 + 16;
 
 /// Bytes per vertex: position (3 × f32), normal (3 × f32), curvature (f32).
 const VERTEX_STRIDE: u64 = 28;
 /// Size of the `Frame` uniform: clip_from_world, to_camera, exposure_count, lights.
 const FRAME_UNIFORM_SIZE: u64 = 64 + 16 + 16 + 32 * MAX_LIGHTS as u64;
-/// Size of the `Material` uniform: five vec4s.
-const MATERIAL_UNIFORM_SIZE: u64 = 5 * 16;
+/// Size of the `Material` uniform: eight vec4s.
+const MATERIAL_UNIFORM_SIZE: u64 = 8 * 16;
 /// Size of one `Draw` uniform: two mat4s and a vec4.
 const DRAW_UNIFORM_SIZE: u64 = 64 + 64 + 16;
 
@@ -133,6 +142,13 @@ pub struct FrameDesc<'a> {
     pub exposure: f32,
     /// The objects, drawn in this order.
     pub draws: &'a [Draw],
+    /// The non-local terms ([`NonLocal::OFF`]: the poster's local model). When any is on,
+    /// `prepare` renders a shadow map for each of the first [`MAX_SHADOW_LIGHTS`] lights and
+    /// returns its commands.
+    pub non_local: NonLocal,
+    /// Millimetres per world unit: turns shadow-map depths into the thicknesses T(d) and the
+    /// penumbra widths need (the scene file's `mm_per_unit`).
+    pub mm_per_world_unit: f32,
 }
 
 /// Why a mesh could not be uploaded.
@@ -222,6 +238,11 @@ pub enum PrepareError {
     },
     /// The view matrix, camera position or direction, or exposure is unusable.
     BadView,
+    /// [`FrameDesc::mm_per_world_unit`] is not finite and > 0.
+    BadUnits {
+        /// The value given.
+        mm_per_world_unit: f32,
+    },
     /// The device refused the pipeline for the current target (an unsupported colour format,
     /// sample count or depth format).
     Pipeline {
@@ -298,6 +319,10 @@ impl fmt::Display for PrepareError {
                 "the view matrix or camera position is not finite, the camera direction is zero, \
                  or the exposure is negative or not finite"
             ),
+            Self::BadUnits { mm_per_world_unit } => write!(
+                f,
+                "mm per world unit = {mm_per_world_unit}: must be finite and > 0"
+            ),
             Self::Pipeline { target, message } => {
                 write!(f, "the device cannot render to {target:?}: {message}")
             }
@@ -321,7 +346,20 @@ struct GpuMesh {
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
     index_count: u32,
+    /// Bounding sphere in model units: centre and radius.
+    bounds: (Vec3, f32),
 }
+
+/// The shadow maps and what the shading pipelines read of them (bind group 3).
+struct ShadowMaps {
+    resolution: u32,
+    /// One view per layer, to render into.
+    layers: Vec<wgpu::TextureView>,
+    bind_group: wgpu::BindGroup,
+}
+
+/// The pipeline variants' key: target, shading model, non-local terms.
+type PipelineKey = (TargetDesc, Model, NonLocal);
 
 struct GpuMaterial {
     model: Model,
@@ -330,6 +368,7 @@ struct GpuMaterial {
 
 #[derive(Clone, Copy)]
 struct PreparedDraw {
+    non_local: NonLocal,
     mesh: MeshId,
     material: MaterialId,
     offset: u32,
@@ -349,7 +388,18 @@ pub struct Renderer {
     material_layout: wgpu::BindGroupLayout,
     draw_layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
-    pipelines: HashMap<(TargetDesc, Model), wgpu::RenderPipeline>,
+    pipelines: HashMap<PipelineKey, wgpu::RenderPipeline>,
+    shadow_layout: wgpu::BindGroupLayout,
+    shadows_buffer: wgpu::Buffer,
+    /// Bound when no shadow map exists yet (a 1 × 1 map).
+    no_shadows: wgpu::BindGroup,
+    shadow_maps: Option<ShadowMaps>,
+    shadow_pass_buffer: wgpu::Buffer,
+    shadow_pass_bind_group: wgpu::BindGroup,
+    shadow_pass_stride: u64,
+    shadow_pipeline: wgpu::RenderPipeline,
+    /// Lights whose shadow map the last `prepare` rendered.
+    shadowed_lights: usize,
     sampler: wgpu::Sampler,
     frame_buffer: wgpu::Buffer,
     frame_bind_group: wgpu::BindGroup,
@@ -414,15 +464,68 @@ impl Renderer {
             label: Some("cdrf draw layout"),
             entries: &[uniform(0, DRAW_UNIFORM_SIZE, true)],
         });
+        let shadow_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cdrf shadows layout"),
+            entries: &[
+                uniform(0, SHADOWS_UNIFORM_SIZE, false),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+            ],
+        });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("cdrf pipeline layout"),
             bind_group_layouts: &[
                 Some(&frame_layout),
                 Some(&material_layout),
                 Some(&draw_layout),
+                Some(&shadow_layout),
             ],
             immediate_size: 0,
         });
+        let shadows_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cdrf shadow uniforms"),
+            size: SHADOWS_UNIFORM_SIZE,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let (_, no_shadows) = create_shadow_maps(device, &shadow_layout, &shadows_buffer, 1);
+        let shadow_pass_layout =
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("cdrf shadow pass layout"),
+                entries: &[wgpu::BindGroupLayoutEntry {
+                    visibility: wgpu::ShaderStages::VERTEX,
+                    ..uniform(0, 64, true)
+                }],
+            });
+        let alignment = u64::from(device.limits().min_uniform_buffer_offset_alignment);
+        let shadow_pass_stride = 64u64.next_multiple_of(alignment);
+        let shadow_pass_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cdrf shadow pass uniforms"),
+            size: shadow_pass_stride * MAX_SHADOW_LIGHTS as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let shadow_pass_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("cdrf shadow pass"),
+            layout: &shadow_pass_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &shadow_pass_buffer,
+                    offset: 0,
+                    size: NonZeroU64::new(64),
+                }),
+            }],
+        });
+        let shadow_pipeline = create_shadow_pipeline(device, &[&shadow_pass_layout, &draw_layout]);
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("cdrf lut sampler"),
             address_mode_u: wgpu::AddressMode::ClampToEdge,
@@ -445,7 +548,6 @@ impl Renderer {
                 resource: frame_buffer.as_entire_binding(),
             }],
         });
-        let alignment = u64::from(device.limits().min_uniform_buffer_offset_alignment);
         let draw_stride = DRAW_UNIFORM_SIZE.next_multiple_of(alignment);
         let (draw_buffer, draw_bind_group) =
             create_draw_buffer(device, &draw_layout, draw_stride, 16);
@@ -457,6 +559,15 @@ impl Renderer {
             draw_layout,
             pipeline_layout,
             pipelines: HashMap::new(),
+            shadow_layout,
+            shadows_buffer,
+            no_shadows,
+            shadow_maps: None,
+            shadow_pass_buffer,
+            shadow_pass_bind_group,
+            shadow_pass_stride,
+            shadow_pipeline,
+            shadowed_lights: 0,
             sampler,
             frame_buffer,
             frame_bind_group,
@@ -547,6 +658,7 @@ impl Renderer {
                 usage: wgpu::BufferUsages::INDEX,
             }),
             index_count: (mesh.triangles.len() * 3) as u32,
+            bounds: bounding_sphere(&mesh.positions),
         };
         self.meshes.insert(id, gpu);
         Ok(id)
@@ -573,29 +685,49 @@ impl Renderer {
         let mut albedo_or_scale = Vec4::ONE;
         let mut sigma_mm = Vec4::ZERO;
         let mut curvature_range = Vec4::ZERO;
+        // Non-local terms: penumbra width and T(d) (none: a hard edge and no transmission).
+        let mut scattering_length_mm = Vec4::ZERO;
+        let mut transmission_amplitude = Vec4::ZERO;
+        let mut transmission_length_mm = Vec4::ONE;
         let tabulated;
         let (model, lut, view) = match *desc {
-            MaterialDesc::Measured { lut } => (Model::Measured, Some(lut), lut.view_correction()),
+            MaterialDesc::Measured { lut } => {
+                if let Some(translucency) = lut.translucency() {
+                    scattering_length_mm =
+                        Vec3::from_array(translucency.scattering_length_mm).extend(0.0);
+                    let transmission = translucency.transmission;
+                    transmission_amplitude = Vec3::from_array(transmission.amplitude).extend(0.0);
+                    transmission_length_mm = Vec3::from_array(transmission.length_mm).extend(1.0);
+                }
+                (Model::Measured, Some(lut), lut.view_correction())
+            }
             MaterialDesc::Gaussian {
                 model,
                 view_correction,
-            } => match self.options.gaussian {
-                GaussianEvaluation::Lut => {
-                    let axis = CurvatureAxis {
-                        min_per_mm: 0.0,
-                        max_per_mm: self.options.gaussian_lut_max_curvature_per_mm,
-                        count: self.options.gaussian_lut_rows as usize,
-                    };
-                    tabulated =
-                        CdrfLut::tabulate(model, axis, self.options.gaussian_lut_columns as usize)?;
-                    (Model::GaussianLut, Some(&tabulated), view_correction)
+            } => {
+                // Kubo's σ is the terminator's width in mm: the same sideways spread.
+                scattering_length_mm = Vec3::from_array(model.sigma_mm()).extend(0.0);
+                match self.options.gaussian {
+                    GaussianEvaluation::Lut => {
+                        let axis = CurvatureAxis {
+                            min_per_mm: 0.0,
+                            max_per_mm: self.options.gaussian_lut_max_curvature_per_mm,
+                            count: self.options.gaussian_lut_rows as usize,
+                        };
+                        tabulated = CdrfLut::tabulate(
+                            model,
+                            axis,
+                            self.options.gaussian_lut_columns as usize,
+                        )?;
+                        (Model::GaussianLut, Some(&tabulated), view_correction)
+                    }
+                    GaussianEvaluation::Analytic => {
+                        sigma_mm = Vec3::from_array(model.sigma_mm()).extend(0.0);
+                        albedo_or_scale = Vec3::from_array(model.scale()).extend(1.0);
+                        (Model::GaussianAnalytic, None, view_correction)
+                    }
                 }
-                GaussianEvaluation::Analytic => {
-                    sigma_mm = Vec3::from_array(model.sigma_mm()).extend(0.0);
-                    albedo_or_scale = Vec3::from_array(model.scale()).extend(1.0);
-                    (Model::GaussianAnalytic, None, view_correction)
-                }
-            },
+            }
             MaterialDesc::Lambert { albedo } => {
                 check_finite_non_negative("albedo", &albedo)?;
                 albedo_or_scale = Vec3::from_array(albedo).extend(1.0);
@@ -654,7 +786,10 @@ impl Renderer {
             .vec4(sigma_mm)
             .vec4(lut_axis)
             .vec4(view_axis)
-            .vec4(curvature_range);
+            .vec4(curvature_range)
+            .vec4(scattering_length_mm)
+            .vec4(transmission_amplitude)
+            .vec4(transmission_length_mm);
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("cdrf material uniforms"),
             contents: &uniforms.0,
@@ -698,6 +833,11 @@ impl Renderer {
     /// Uploads the frame's camera, lights and draw transforms and builds the pipelines the
     /// draws need for the current target.
     ///
+    /// With a non-local term on ([`FrameDesc::non_local`]) it also records the shadow pass (a
+    /// depth map of the draws per light, for the first [`MAX_SHADOW_LIGHTS`] lights) and
+    /// returns its commands: the host submits them before, or together with and ahead of, the
+    /// commands of the pass that calls [`Renderer::render`]. Otherwise the list is empty.
+    ///
     /// # Errors
     /// [`PrepareError`]; then nothing is drawn until a later `prepare` succeeds.
     pub fn prepare(
@@ -705,8 +845,16 @@ impl Renderer {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         frame: &FrameDesc<'_>,
-    ) -> Result<(), PrepareError> {
+    ) -> Result<Vec<wgpu::CommandBuffer>, PrepareError> {
         self.prepared.clear();
+        self.shadowed_lights = 0;
+        if frame.non_local.any()
+            && !(frame.mm_per_world_unit.is_finite() && frame.mm_per_world_unit > 0.0)
+        {
+            return Err(PrepareError::BadUnits {
+                mm_per_world_unit: frame.mm_per_world_unit,
+            });
+        }
         if frame.lights.len() > MAX_LIGHTS {
             return Err(PrepareError::TooManyLights {
                 count: frame.lights.len(),
@@ -769,8 +917,14 @@ impl Renderer {
                 .mat4(normal_from_model)
                 .vec4(Vec4::new(curvature_scale, 0.0, 0.0, 0.0))
                 .pad_to(self.draw_stride as usize);
-            self.ensure_pipeline(device, material.model)?;
+            let non_local = if material.model == Model::Curvature {
+                NonLocal::OFF
+            } else {
+                frame.non_local
+            };
+            self.ensure_pipeline(device, material.model, non_local)?;
             prepared.push(PreparedDraw {
+                non_local,
                 mesh: draw.mesh,
                 material: draw.material,
                 offset,
@@ -805,8 +959,103 @@ impl Renderer {
         if !draws.0.is_empty() {
             queue.write_buffer(&self.draw_buffer, 0, &draws.0);
         }
+        let commands = if frame.non_local.any() && !prepared.is_empty() {
+            self.prepare_shadows(device, queue, frame, &prepared)
+        } else {
+            Vec::new()
+        };
         self.prepared = prepared;
-        Ok(())
+        Ok(commands)
+    }
+
+    /// Fits an orthographic light camera to the bounding sphere of the draws for each of the
+    /// first [`MAX_SHADOW_LIGHTS`] lights, uploads the transforms and records the depth pass.
+    fn prepare_shadows(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        frame: &FrameDesc<'_>,
+        prepared: &[PreparedDraw],
+    ) -> Vec<wgpu::CommandBuffer> {
+        let resolution = self
+            .options
+            .shadow_map_resolution
+            .clamp(1, device.limits().max_texture_dimension_2d);
+        if self.shadow_maps.as_ref().map(|m| m.resolution) != Some(resolution) {
+            let (layers, bind_group) = create_shadow_maps(
+                device,
+                &self.shadow_layout,
+                &self.shadows_buffer,
+                resolution,
+            );
+            self.shadow_maps = Some(ShadowMaps {
+                resolution,
+                layers,
+                bind_group,
+            });
+        }
+        let (centre, radius) = scene_bounds(frame.draws, &self.meshes);
+        let lights = frame.lights.len().min(MAX_SHADOW_LIGHTS);
+        let mut shadows = Bytes::with_capacity(SHADOWS_UNIFORM_SIZE as usize);
+        let mut passes = vec![0u8; (self.shadow_pass_stride * MAX_SHADOW_LIGHTS as u64) as usize];
+        for (index, light) in frame.lights.iter().take(lights).enumerate() {
+            let camera = LightCamera::fit(light.to_light, centre, radius);
+            shadows.mat4(camera.light_from_world).vec4(Vec4::new(
+                camera.half_extent,
+                camera.depth_range,
+                0.0,
+                0.0,
+            ));
+            let mut pass = Bytes::with_capacity(64);
+            pass.mat4(camera.clip_from_world());
+            let start = index * self.shadow_pass_stride as usize;
+            passes[start..start + 64].copy_from_slice(&pass.0);
+        }
+        shadows.0.resize(SHADOWS_UNIFORM_SIZE as usize - 16, 0);
+        shadows.vec4(Vec4::new(
+            frame.mm_per_world_unit,
+            self.options.shadow_bias_mm.max(0.0),
+            resolution as f32,
+            lights as f32,
+        ));
+        queue.write_buffer(&self.shadows_buffer, 0, &shadows.0);
+        queue.write_buffer(&self.shadow_pass_buffer, 0, &passes);
+
+        let maps = self.shadow_maps.as_ref().expect("created above");
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("cdrf shadow pass"),
+        });
+        for (index, layer) in maps.layers.iter().take(lights).enumerate() {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("cdrf shadow map"),
+                color_attachments: &[],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: layer,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.shadow_pipeline);
+            let offset = (index as u64 * self.shadow_pass_stride) as u32;
+            pass.set_bind_group(0, &self.shadow_pass_bind_group, &[offset]);
+            for draw in prepared {
+                let Some(mesh) = self.meshes.get(&draw.mesh) else {
+                    continue;
+                };
+                pass.set_bind_group(1, &self.draw_bind_group, &[draw.offset]);
+                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+            }
+        }
+        self.shadowed_lights = lights;
+        vec![encoder.finish()]
     }
 
     /// Records the prepared draws into the host's pass (whose attachments must match the
@@ -829,7 +1078,12 @@ impl Renderer {
             return;
         }
         pass.set_bind_group(0, &self.frame_bind_group, &[]);
-        let mut current: Option<Model> = None;
+        let shadows = match &self.shadow_maps {
+            Some(maps) if self.shadowed_lights > 0 => &maps.bind_group,
+            _ => &self.no_shadows,
+        };
+        pass.set_bind_group(3, shadows, &[]);
+        let mut current: Option<(Model, NonLocal)> = None;
         for draw in prepared {
             let (Some(mesh), Some(material)) = (
                 self.meshes.get(&draw.mesh),
@@ -837,12 +1091,16 @@ impl Renderer {
             ) else {
                 continue;
             };
-            let Some(pipeline) = self.pipelines.get(&(self.target, material.model)) else {
+            let variant = (material.model, draw.non_local);
+            let Some(pipeline) = self
+                .pipelines
+                .get(&(self.target, material.model, draw.non_local))
+            else {
                 continue;
             };
-            if current != Some(material.model) {
+            if current != Some(variant) {
                 pass.set_pipeline(pipeline);
-                current = Some(material.model);
+                current = Some(variant);
             }
             pass.set_bind_group(1, &material.bind_group, &[]);
             pass.set_bind_group(2, &self.draw_bind_group, &[draw.offset]);
@@ -899,8 +1157,13 @@ impl Renderer {
     /// Builds the pipeline for the current target and `model` unless cached. wgpu reports a
     /// target the device cannot use through an error scope, returned here instead of reaching
     /// the host's uncaptured-error handler.
-    fn ensure_pipeline(&mut self, device: &wgpu::Device, model: Model) -> Result<(), PrepareError> {
-        let key = (self.target, model);
+    fn ensure_pipeline(
+        &mut self,
+        device: &wgpu::Device,
+        model: Model,
+        non_local: NonLocal,
+    ) -> Result<(), PrepareError> {
+        let key = (self.target, model, non_local);
         if self.pipelines.contains_key(&key) {
             return Ok(());
         }
@@ -915,6 +1178,10 @@ impl Renderer {
             (
                 "ENCODE_SRGB",
                 f64::from(u8::from(target.encodes_srgb_in_shader())),
+            ),
+            (
+                "NON_LOCAL",
+                f64::from(u8::from(non_local.shadows) | (u8::from(non_local.transmission) << 1)),
             ),
         ];
         let compilation_options = wgpu::PipelineCompilationOptions {
@@ -1017,4 +1284,194 @@ fn check_finite_non_negative(what: &'static str, values: &[f32]) -> Result<(), M
             requirement: "must be finite and ≥ 0",
         })
     }
+}
+
+/// An orthographic camera looking along a directional light, fitted to a bounding sphere.
+struct LightCamera {
+    /// World → light space: x, y across the light, z along it from the map's light-side plane.
+    light_from_world: Mat4,
+    /// Half the map's side, world units.
+    half_extent: f32,
+    /// Depth that maps to 1, world units.
+    depth_range: f32,
+}
+
+impl LightCamera {
+    fn fit(to_light: Vec3, centre: Vec3, radius: f32) -> Self {
+        let forward = -to_light.normalize();
+        let helper = if forward.y.abs() < 0.9 {
+            Vec3::Y
+        } else {
+            Vec3::X
+        };
+        let x = helper.cross(forward).normalize();
+        let y = forward.cross(x);
+        // A margin so the sphere's rim is not on the map's edge or its far plane.
+        let half_extent = radius * 1.02;
+        let rotation = Mat4::from_mat3(Mat3::from_cols(x, y, forward).transpose());
+        let light_from_world = Mat4::from_translation(Vec3::new(0.0, 0.0, half_extent))
+            * rotation
+            * Mat4::from_translation(-centre);
+        Self {
+            light_from_world,
+            half_extent,
+            depth_range: 2.0 * half_extent,
+        }
+    }
+
+    /// Light space → the shadow pass's clip space (depth = z / depth range).
+    fn clip_from_world(&self) -> Mat4 {
+        Mat4::from_scale(Vec3::new(
+            1.0 / self.half_extent,
+            1.0 / self.half_extent,
+            1.0 / self.depth_range,
+        )) * self.light_from_world
+    }
+}
+
+/// A bounding sphere of `positions` (the box's centre and the farthest point from it).
+fn bounding_sphere(positions: &[Vec3]) -> (Vec3, f32) {
+    let (min, max) = positions.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+    );
+    let centre = (min + max) * 0.5;
+    let radius = positions
+        .iter()
+        .map(|p| p.distance(centre))
+        .fold(0.0, f32::max);
+    (centre, radius)
+}
+
+/// A sphere around every draw's mesh in world space (radius > 0).
+fn scene_bounds(draws: &[Draw], meshes: &HashMap<MeshId, GpuMesh>) -> (Vec3, f32) {
+    let spheres: Vec<(Vec3, f32)> = draws
+        .iter()
+        .filter_map(|draw| {
+            let (centre, radius) = meshes.get(&draw.mesh)?.bounds;
+            let linear = Mat3::from_mat4(draw.world_from_model);
+            let scale = linear
+                .x_axis
+                .length()
+                .max(linear.y_axis.length())
+                .max(linear.z_axis.length());
+            Some((
+                draw.world_from_model.transform_point3(centre),
+                radius * scale,
+            ))
+        })
+        .collect();
+    let (min, max) = spheres.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(lo, hi), &(c, r)| (lo.min(c - r), hi.max(c + r)),
+    );
+    let centre = (min + max) * 0.5;
+    let radius = spheres
+        .iter()
+        .map(|&(c, r)| c.distance(centre) + r)
+        .fold(0.0, f32::max);
+    (centre, radius.max(1e-6))
+}
+
+/// The shadow maps (one depth layer per shadowed light, `resolution` texels per side) and the
+/// shading pipelines' bind group 3 reading them.
+fn create_shadow_maps(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    uniforms: &wgpu::Buffer,
+    resolution: u32,
+) -> (Vec<wgpu::TextureView>, wgpu::BindGroup) {
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("cdrf shadow maps"),
+        size: wgpu::Extent3d {
+            width: resolution,
+            height: resolution,
+            depth_or_array_layers: MAX_SHADOW_LIGHTS as u32,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: SHADOW_FORMAT,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        view_formats: &[],
+    });
+    let array = texture.create_view(&wgpu::TextureViewDescriptor {
+        label: Some("cdrf shadow maps (array)"),
+        dimension: Some(wgpu::TextureViewDimension::D2Array),
+        ..Default::default()
+    });
+    let layers = (0..MAX_SHADOW_LIGHTS as u32)
+        .map(|layer| {
+            texture.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("cdrf shadow map"),
+                dimension: Some(wgpu::TextureViewDimension::D2),
+                base_array_layer: layer,
+                array_layer_count: Some(1),
+                ..Default::default()
+            })
+        })
+        .collect();
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("cdrf shadows"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: uniforms.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(&array),
+            },
+        ],
+    });
+    (layers, bind_group)
+}
+
+/// The depth-only pipeline of the shadow pass (no culling: the first surface whatever its
+/// winding).
+fn create_shadow_pipeline(
+    device: &wgpu::Device,
+    layouts: &[&wgpu::BindGroupLayout],
+) -> wgpu::RenderPipeline {
+    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("cdrf shadow shader"),
+        source: wgpu::ShaderSource::Wgsl(SHADOW_SHADER_SOURCE.into()),
+    });
+    let layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().copied().map(Some).collect();
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("cdrf shadow pipeline layout"),
+        bind_group_layouts: &layouts,
+        immediate_size: 0,
+    });
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("cdrf shadow pipeline"),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module: &shader,
+            entry_point: Some("vs_shadow"),
+            compilation_options: Default::default(),
+            buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: VERTEX_STRIDE,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+            })],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: SHADOW_FORMAT,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: None,
+        multiview_mask: None,
+        cache: None,
+    })
 }

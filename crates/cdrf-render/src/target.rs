@@ -94,6 +94,12 @@ pub struct Options {
     /// Cull back faces (counter-clockwise triangles are front faces). Turn off for meshes whose
     /// winding is not consistent.
     pub cull_back_faces: bool,
+    /// Texels per side of each light's shadow map (used only when a frame turns on a non-local
+    /// term; the map covers the bounding sphere of the frame's draws).
+    pub shadow_map_resolution: u32,
+    /// How much nearer the light than the local surface predicts an occluder must be to count,
+    /// mm (on top of one texel times the surface's depth slope).
+    pub shadow_bias_mm: f32,
 }
 
 impl Options {
@@ -107,6 +113,8 @@ impl Options {
         gaussian_lut_columns: 361,
         depth_compare: CompareFunction::Less,
         cull_back_faces: true,
+        shadow_map_resolution: 1024,
+        shadow_bias_mm: 0.5,
     };
 }
 

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use cdrf_core::glam::{Mat3, Mat4, Vec2, Vec3};
-use cdrf_core::scene::DirectionalLight;
+use cdrf_core::scene::{DirectionalLight, NonLocal};
 use cdrf_core::{Cdrf, Filter};
 use cdrf_render::{MaterialDesc, MaterialId, MeshDesc, MeshId};
 use egui::{Color32, RichText};
@@ -87,6 +87,8 @@ pub struct Settings {
     /// Show wall-clock timings (frame interval, Gaussian table build). Snapshot tests turn
     /// them off: they differ from run to run.
     pub show_timings: bool,
+    /// Cast shadows and transmission (both models).
+    pub non_local: NonLocal,
 }
 
 impl Settings {
@@ -205,6 +207,7 @@ impl ViewerApp {
             plot_follows_pointer: true,
             continuous: false,
             show_timings: true,
+            non_local: files.non_local,
         };
         settings.set_to_light(files.to_light);
         let mut app = Self {
@@ -573,6 +576,10 @@ impl ViewerApp {
             );
         }
         ui.checkbox(&mut self.settings.curvature_view, "curvature view (/mm)");
+        ui.checkbox(&mut self.settings.non_local.shadows, "cast shadows")
+            .on_hover_text("Translucent visibility from a shadow map: parts hidden from the light by other parts, with a penumbra as wide as the material's scattering length");
+        ui.checkbox(&mut self.settings.non_local.transmission, "transmission")
+            .on_hover_text("Light through thin parts (and, with cast shadows, through occluders) by the transmission profile T(d) measured with the table");
         ui.separator();
 
         ui.heading("Light");
@@ -891,6 +898,7 @@ impl ViewerApp {
             difference_range: self.settings.difference_range,
             size_points,
             background: BACKGROUND,
+            non_local: self.settings.non_local,
         };
         ui.painter()
             .add(egui_wgpu::Callback::new_paint_callback(rect, callback));

@@ -7,7 +7,7 @@ use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::gaussian_file::GaussianFileError;
 use cdrf_core::glam::Vec3;
 use cdrf_core::lut_file::LutFileError;
-use cdrf_core::scene::{Scene, SceneError};
+use cdrf_core::scene::{NonLocal, Scene, SceneError};
 use cdrf_core::{
     CdrfLut, CurvatureError, CurvatureOptions, GaussianParameters, LoadError, Mesh, ViewCorrection,
     mean_curvature_per_mm, read_gaussian, read_lut,
@@ -332,6 +332,8 @@ pub struct StartupFiles {
     pub irradiance: f32,
     /// cdrf-fit output folder (`measured.exr`, `gaussian.toml`).
     pub fit_folder: PathBuf,
+    /// The non-local terms to start with (the scene's `[shading] shadows`, `transmission`).
+    pub non_local: NonLocal,
 }
 
 impl StartupFiles {
@@ -358,6 +360,7 @@ impl StartupFiles {
             to_light: light.map_or(Vec3::NEG_X, |l| l.to_light),
             irradiance: light.map_or(1.0, |l| l.irradiance[0]),
             fit_folder: fit_folder.to_owned(),
+            non_local: scene.non_local,
         })
     }
 }

@@ -5,7 +5,9 @@
 //! `data/compare.toml`) the object is rendered with the three models of one fit folder: the
 //! measured LUT, the Gaussian CDRF fitted to the same photographs (both with the fit's view
 //! correction), and Lambert with an albedo fitted to the same measurement
-//! ([`CdrfLut::lambert_albedo`]). Each render is compared with the reference:
+//! ([`CdrfLut::lambert_albedo`]), and with the non-local terms (cast shadows, transmission;
+//! [`cdrf_core::translucency`]) added to the CDRFs ([`ModelName::ALL`]). Each render is compared
+//! with the reference:
 //!
 //! - **Pixels compared**: those the render covers fully (4× MSAA coverage = 1) with every
 //!   neighbour within [`ERODE_PX`] pixels covered too — the silhouette eroded by 2 px, so edge
@@ -32,7 +34,7 @@ use std::path::{Path, PathBuf};
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::{RgbaImage, linear_to_srgb};
-use cdrf_core::scene::{DirectionalLight, Material, Scene};
+use cdrf_core::scene::{DirectionalLight, Material, NonLocal, Scene};
 use cdrf_core::{CdrfLut, ViewCorrection};
 use cdrf_render::Options;
 use cdrf_render::headless::{HeadlessDevice, RenderSettings, render_scene};
@@ -162,30 +164,69 @@ impl Models {
     }
 }
 
-/// A shading model compared.
+/// A shading model compared: a CDRF (or Lambert) and the non-local terms added to it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[serde(rename_all = "snake_case")]
 pub enum ModelName {
-    /// The measured LUT.
+    /// The measured LUT (the poster's model).
     Measured,
+    /// The measured LUT with translucent visibility (cast shadows).
+    MeasuredShadows,
+    /// The measured LUT with transmission through thin parts.
+    MeasuredTransmission,
+    /// The measured LUT with both non-local terms.
+    MeasuredShadowsTransmission,
     /// Kubo's Gaussian CDRF.
     Gaussian,
+    /// Kubo's Gaussian CDRF with translucent visibility (penumbra = its σ).
+    GaussianShadows,
     /// Lambert with the fitted albedo.
     Lambert,
 }
 
 impl ModelName {
-    /// All three, in table order.
-    pub const ALL: [ModelName; 3] = [ModelName::Measured, ModelName::Gaussian, ModelName::Lambert];
+    /// All of them, in table order.
+    pub const ALL: [ModelName; 7] = [
+        ModelName::Measured,
+        ModelName::MeasuredShadows,
+        ModelName::MeasuredTransmission,
+        ModelName::MeasuredShadowsTransmission,
+        ModelName::Gaussian,
+        ModelName::GaussianShadows,
+        ModelName::Lambert,
+    ];
+
+    /// The non-local terms this model adds.
+    pub fn non_local(self) -> NonLocal {
+        let (shadows, transmission) = match self {
+            ModelName::Measured | ModelName::Gaussian | ModelName::Lambert => (false, false),
+            ModelName::MeasuredShadows | ModelName::GaussianShadows => (true, false),
+            ModelName::MeasuredTransmission => (false, true),
+            ModelName::MeasuredShadowsTransmission => (true, true),
+        };
+        NonLocal {
+            shadows,
+            transmission,
+        }
+    }
+
+    /// A short column heading.
+    pub fn short_label(self) -> &'static str {
+        match self {
+            ModelName::Measured => "measured",
+            ModelName::MeasuredShadows => "measured + shadows",
+            ModelName::MeasuredTransmission => "measured + transmission",
+            ModelName::MeasuredShadowsTransmission => "measured + shadows + transmission",
+            ModelName::Gaussian => "Gaussian",
+            ModelName::GaussianShadows => "Gaussian + shadows",
+            ModelName::Lambert => "Lambert",
+        }
+    }
 }
 
 impl fmt::Display for ModelName {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            ModelName::Measured => "measured CDRF",
-            ModelName::Gaussian => "Gaussian CDRF",
-            ModelName::Lambert => "Lambert",
-        })
+        f.write_str(self.short_label())
     }
 }
 
@@ -401,22 +442,25 @@ pub fn run_case(
                 message: e.to_string(),
             })
     };
-    let renders = vec![
-        render(&scene, Material::Measured(models.measured.clone()))?,
-        render(
-            &scene,
-            Material::Gaussian {
+    let mut renders = Vec::with_capacity(ModelName::ALL.len());
+    for model in ModelName::ALL {
+        let material = match model {
+            ModelName::Measured
+            | ModelName::MeasuredShadows
+            | ModelName::MeasuredTransmission
+            | ModelName::MeasuredShadowsTransmission => Material::Measured(models.measured.clone()),
+            ModelName::Gaussian | ModelName::GaussianShadows => Material::Gaussian {
                 model: models.gaussian,
                 view_correction: models.view_correction.clone(),
             },
-        )?,
-        render(
-            &scene,
-            Material::Lambert {
+            ModelName::Lambert => Material::Lambert {
                 albedo: models.lambert_albedo,
             },
-        )?,
-    ];
+        };
+        let mut variant = scene.clone();
+        variant.non_local = model.non_local();
+        renders.push(render(&variant, material)?);
+    }
 
     // cos θ per pixel: a white Lambertian surface lit from the light and from the opposite
     // side gives max(cos θ, 0)/π and max(−cos θ, 0)/π.
@@ -425,6 +469,7 @@ pub fn run_case(
     };
     let white = || Material::Lambert { albedo: [1.0; 3] };
     let mut one_light = scene.clone();
+    one_light.non_local = NonLocal::OFF;
     one_light.lights = vec![DirectionalLight {
         to_light: light.to_light,
         irradiance: [1.0; 3],
@@ -707,7 +752,8 @@ fn block_stats(
 pub fn figure(result: &CaseResult) -> image::RgbImage {
     let images = &result.images;
     let (w, h) = (result.width, result.height);
-    let mut figure = image::RgbImage::new(4 * w, 2 * h);
+    let columns = 1 + images.renders.len() as u32;
+    let mut figure = image::RgbImage::new(columns * w, 2 * h);
     let Some(reference) = &images.reference else {
         return figure;
     };
@@ -793,10 +839,13 @@ pub fn markdown(results: &[CaseResult]) -> String {
             result.lambert_albedo[1],
             result.lambert_albedo[2]
         ));
-        text.push_str(
-            "| region | blocks | mean reference radiance | measured CDRF | Gaussian CDRF | Lambert |\n",
-        );
-        text.push_str("|---|---|---|---|---|---|\n");
+        text.push_str("| region | blocks | mean reference radiance |");
+        for model in ModelName::ALL {
+            text.push_str(&format!(" {model} |"));
+        }
+        text.push_str("\n|---|---|---|");
+        text.push_str(&"---|".repeat(ModelName::ALL.len()));
+        text.push('\n');
         for row in &result.regions {
             let best = |metric: fn(&Metrics) -> f64| {
                 row.models

@@ -10,7 +10,7 @@
 //! texture lookup.
 
 use cdrf_core::glam::{Mat4, Vec2};
-use cdrf_core::scene::DirectionalLight;
+use cdrf_core::scene::{DirectionalLight, NonLocal};
 use cdrf_render::{
     Draw, FrameDesc, MaterialId, MeshId, OffscreenTarget, Options, Renderer, TargetDesc, View,
 };
@@ -257,6 +257,8 @@ pub struct ViewCallback {
     pub size_points: Vec2,
     /// Background, linear RGB.
     pub background: [f32; 3],
+    /// Cast shadows and transmission (world units are mm here).
+    pub non_local: NonLocal,
 }
 
 impl CallbackTrait for ViewCallback {
@@ -299,9 +301,15 @@ impl CallbackTrait for ViewCallback {
             lights: &self.lights,
             exposure: self.exposure,
             draws: &draws,
+            non_local: self.non_local,
+            mm_per_world_unit: 1.0,
         };
         let prepared = gpu.renderer.prepare(device, queue, &frame);
         gpu.last_error = prepared.as_ref().err().map(ToString::to_string);
+        let (prepared, shadow_commands) = match prepared {
+            Ok(commands) => (Ok(()), commands),
+            Err(error) => (Err(error), Vec::new()),
+        };
 
         if let Some(slots) = &gpu.slots {
             for (target, draw) in slots.targets.iter().zip(slot_draw) {
@@ -323,7 +331,8 @@ impl CallbackTrait for ViewCallback {
         params[8..11].copy_from_slice(&self.background);
         let bytes: Vec<u8> = params.iter().flat_map(|v| v.to_le_bytes()).collect();
         queue.write_buffer(&gpu.params, 0, &bytes);
-        Vec::new()
+        // egui-wgpu submits these ahead of its own encoder, which holds the slots' passes.
+        shadow_commands
     }
 
     fn paint(
