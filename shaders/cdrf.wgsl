@@ -344,6 +344,7 @@ fn transmission_profile(thickness_mm: f32) -> vec3<f32> {
 // sphere (or tangent plane) of the point.
 fn non_local_terms(
     index: u32,
+    pixel: vec2<f32>,
     world_position: vec3<f32>,
     normal: vec3<f32>,
     curvature_per_mm: f32,
@@ -373,6 +374,9 @@ fn non_local_terms(
     }
     let tangent = normalize(cross(helper, n));
     let bitangent = cross(n, tangent);
+    // The spiral turns by a different angle at every pixel (interleaved gradient noise,
+    // Jimenez 2014): a few taps leave fine noise instead of contour bands in the penumbra.
+    let spin = 6.28318530718 * fract(52.9829189 * fract(dot(pixel, vec2<f32>(0.06711056, 0.00583715))));
     var unoccluded = vec3<f32>(0.0);
     var through = vec3<f32>(0.0);
     var weights = vec3<f32>(0.0);
@@ -381,7 +385,7 @@ fn non_local_terms(
         // Tap k of a Vogel spiral over the disc of radius 2σ on the tangent plane (tap 0 at the
         // centre), moved onto the local shape: `surface`, with normal `facing`.
         let radius = 2.0 * sigma_max * sqrt(f32(k) / f32(PENUMBRA_TAPS));
-        let angle = f32(k) * GOLDEN_ANGLE;
+        let angle = f32(k) * GOLDEN_ANGLE + spin;
         var surface = p + radius * (cos(angle) * tangent + sin(angle) * bitangent);
         var facing = n;
         if curved {
@@ -429,9 +433,10 @@ fn non_local_terms(
         } else {
             unoccluded += weight;
             if k == 0u && (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u {
+                // Thinner than the local shape by more than the tolerance.
                 thin = max(
-                    transmission_profile(p.z - occluder + tolerance)
-                        - transmission_profile(p.z - expected),
+                    transmission_profile(p.z - occluder)
+                        - transmission_profile(p.z - expected - tolerance),
                     vec3<f32>(0.0),
                 );
             }
@@ -475,7 +480,13 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                 f = lut_value(in.curvature_per_mm, theta);
             }
             if NON_LOCAL != 0u && i < u32(shadows.params.w) {
-                let terms = non_local_terms(i, in.world_position, normal, in.curvature_per_mm);
+                let terms = non_local_terms(
+                    i,
+                    in.clip.xy,
+                    in.world_position,
+                    normal,
+                    in.curvature_per_mm,
+                );
                 if (NON_LOCAL & NON_LOCAL_SHADOWS) != 0u {
                     f *= terms.visibility;
                 }

@@ -630,3 +630,26 @@ fn glb_export_checks_lengths_and_never_leaves_partial_files() {
     );
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
 }
+
+#[test]
+fn cuboid_faces_are_flat_outward_and_counter_clockwise() {
+    let half = cdrf_core::glam::Vec3::new(30.0, 20.0, 2.0);
+    let cuboid = cdrf_core::Mesh::cuboid(half);
+    assert_eq!((cuboid.positions.len(), cuboid.triangles.len()), (24, 12));
+    for [a, b, c] in &cuboid.triangles {
+        let [a, b, c] = [*a, *b, *c].map(|i| cuboid.positions[i as usize]);
+        let geometric = (b - a).cross(c - a).normalize();
+        let centre = (a + b + c) / 3.0;
+        assert!(
+            geometric.dot(centre / half) > 0.5,
+            "{geometric} at {centre}"
+        );
+        assert!(
+            (a.abs() - half).abs().min_element() < 1e-6,
+            "a vertex off the box: {a}"
+        );
+    }
+    for (p, n) in cuboid.positions.iter().zip(&cuboid.normals) {
+        assert!((p.dot(*n) - (half * n.abs()).element_sum()).abs() < 1e-5);
+    }
+}

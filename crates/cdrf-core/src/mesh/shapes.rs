@@ -1,4 +1,5 @@
-//! Analytic test shapes with exact vertex positions and normals: icosphere, ellipsoid, torus.
+//! Analytic test shapes with exact vertex positions and normals: icosphere, ellipsoid, torus,
+//! cuboid.
 
 use std::collections::HashMap;
 use std::f32::consts::TAU;
@@ -16,6 +17,39 @@ impl Mesh {
         Self {
             positions: directions.iter().map(|&d| d * radius).collect(),
             normals: directions,
+            uvs: None,
+            triangles,
+        }
+    }
+
+    /// An axis-aligned box centred at the origin with the given half extents: six flat faces of
+    /// two triangles each, with their own four vertices (24 in all), so every vertex normal is
+    /// its face's. Its faces are flat: curvature 0 everywhere but the edges.
+    pub fn cuboid(half_extents: Vec3) -> Self {
+        let mut positions = Vec::with_capacity(24);
+        let mut normals = Vec::with_capacity(24);
+        let mut triangles = Vec::with_capacity(12);
+        for axis in 0..3 {
+            for sign in [-1.0f32, 1.0] {
+                let mut normal = Vec3::ZERO;
+                normal[axis] = sign;
+                // Two directions across the face, ordered so (u × v) = normal: CCW from outside.
+                let mut u = Vec3::ZERO;
+                u[(axis + 1) % 3] = 1.0;
+                let mut v = Vec3::ZERO;
+                v[(axis + 2) % 3] = sign;
+                let base = positions.len() as u32;
+                for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                    positions.push((normal + a * u + b * v) * half_extents);
+                    normals.push(normal);
+                }
+                triangles.push([base, base + 1, base + 2]);
+                triangles.push([base, base + 2, base + 3]);
+            }
+        }
+        Self {
+            positions,
+            normals,
             uvs: None,
             triangles,
         }

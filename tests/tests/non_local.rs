@@ -1,0 +1,295 @@
+//! The non-local terms on a software adapter (lavapipe): cast shadows with a penumbra and light
+//! through thin parts ([`cdrf_core::translucency`]), with the material terms of the bundled wax
+//! fit. Golden images (`tests/golden/non_local_*.png`) plus numbers held against what the
+//! terms must do: a shape shadowing another, and a thin slab glowing from behind.
+//!
+//! `UPDATE_SNAPSHOTS=1 cargo test -p cdrf-tests --test non_local` rewrites the references.
+
+use std::f32::consts::PI;
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use cdrf_core::glam::Vec3;
+use cdrf_core::image_file::RgbaImage;
+use cdrf_core::lut::Filter;
+use cdrf_core::scene::{
+    Camera, DirectionalLight, Material, MeshSpec, ModelTransform, NonLocal, Projection, Scene,
+    SceneAssets, ShadingSpec,
+};
+use cdrf_core::{CdrfLut, CurvatureOptions, Mesh, Translucency, mean_curvature_per_mm, read_lut};
+use cdrf_render::Options;
+use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
+use cdrf_tests::data_dir;
+use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
+
+/// As in `render.rs`: lavapipe renders are deterministic; any real change of the terms moves
+/// the mean FLIP above this.
+const TOLERANCE: Tolerance = Tolerance {
+    mean_flip: 0.005,
+    max_flip_fraction_above_0_1: 0.002,
+};
+
+const SIZE: u32 = 192;
+
+fn device() -> &'static HeadlessDevice {
+    static DEVICE: OnceLock<HeadlessDevice> = OnceLock::new();
+    DEVICE.get_or_init(|| {
+        HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|error| panic!("{error}"))
+    })
+}
+
+/// The bundled measured table, which must carry its translucency terms (format version 2).
+fn wax() -> (CdrfLut, Translucency) {
+    let path = data_dir().join("wax-fit/measured.exr");
+    let lut = read_lut(&path).unwrap_or_else(|error| panic!("{error}"));
+    let translucency = *lut.translucency().unwrap_or_else(|| {
+        panic!(
+            "{} has no translucency terms: refit it (data/wax-fit/README.md)",
+            path.display()
+        )
+    });
+    (lut, translucency)
+}
+
+/// An orthographic view along −z of a `half_height_mm` frame, one light, mm world units.
+fn scene(half_height_mm: f32, to_light: Vec3, non_local: NonLocal) -> Scene {
+    Scene {
+        mesh: MeshSpec {
+            path: PathBuf::from("generated"),
+            mm_per_unit: 1.0,
+            transform: ModelTransform::default(),
+            curvature_smoothing: 0,
+        },
+        camera: Camera {
+            projection: Projection::Orthographic {
+                half_height: half_height_mm,
+            },
+            eye: Vec3::new(0.0, 0.0, 200.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            width: SIZE,
+            height: SIZE,
+            msaa_samples: 4,
+        },
+        lights: vec![DirectionalLight {
+            to_light: to_light.normalize(),
+            irradiance: [1.0; 3],
+        }],
+        shading: ShadingSpec::Measured {
+            lut: PathBuf::from("generated"),
+        },
+        non_local,
+    }
+}
+
+fn render(scene: &Scene, assets: &SceneAssets) -> RgbaImage {
+    let settings = RenderSettings {
+        options: Options::PREDICTABLE,
+        ..RenderSettings::default()
+    };
+    render_scene(device(), scene, assets, &settings)
+        .unwrap_or_else(|error| panic!("{error}"))
+        .image
+}
+
+fn srgb8(image: &RgbaImage, exposure: f32) -> Srgb8Image {
+    let mut exposed = image.clone();
+    for pixel in &mut exposed.pixels {
+        for channel in &mut pixel[..3] {
+            *channel *= exposure;
+        }
+    }
+    Srgb8Image {
+        width: image.width,
+        height: image.height,
+        pixels: exposed.to_srgb8(),
+    }
+}
+
+/// Pixel (column, row) of world point (x, y) mm in a `half_height_mm` frame.
+fn pixel_of(x_mm: f32, y_mm: f32, half_height_mm: f32) -> (u32, u32) {
+    let mm_per_px = 2.0 * half_height_mm / SIZE as f32;
+    let column = (x_mm / mm_per_px + SIZE as f32 / 2.0) as u32;
+    let row = (SIZE as f32 / 2.0 - y_mm / mm_per_px) as u32;
+    (column, row)
+}
+
+/// Mean red radiance over a `radius`-pixel square around a pixel.
+fn mean_red(image: &RgbaImage, (column, row): (u32, u32), radius: u32) -> f32 {
+    let mut sum = 0.0;
+    let mut count = 0.0;
+    for y in row - radius..=row + radius {
+        for x in column - radius..=column + radius {
+            sum += image.pixels[(y * image.width + x) as usize][0];
+            count += 1.0;
+        }
+    }
+    sum / count
+}
+
+/// Two meshes as one (the scene format draws one mesh; a second object is just more triangles).
+fn merged(parts: &[(Mesh, Vec3)]) -> (Mesh, Vec<f32>) {
+    let mut mesh = Mesh {
+        positions: Vec::new(),
+        normals: Vec::new(),
+        uvs: None,
+        triangles: Vec::new(),
+    };
+    let mut curvature = Vec::new();
+    for (part, offset) in parts {
+        let base = mesh.positions.len() as u32;
+        curvature.extend(
+            mean_curvature_per_mm(part, &CurvatureOptions::new(1.0))
+                .unwrap_or_else(|error| panic!("{error}")),
+        );
+        mesh.positions
+            .extend(part.positions.iter().map(|p| *p + *offset));
+        mesh.normals.extend(&part.normals);
+        mesh.triangles
+            .extend(part.triangles.iter().map(|t| t.map(|i| i + base)));
+    }
+    (mesh, curvature)
+}
+
+/// A 12 mm sphere left of (toward the light from) a 25 mm sphere and nearer the camera: its
+/// shadow falls on the big sphere's visible lit side, softly; neither sphere shadows itself.
+#[test]
+fn a_shape_shadowing_another() {
+    let (lut, translucency) = wax();
+    let small_centre = Vec3::new(-32.0, 10.0, 17.3);
+    let big_centre = Vec3::new(12.0, 0.0, 0.0);
+    let (mesh, curvature_per_mm) = merged(&[
+        (Mesh::icosphere(12.0, 5), small_centre),
+        (Mesh::icosphere(25.0, 5), big_centre),
+    ]);
+    let assets = SceneAssets {
+        mesh,
+        curvature_per_mm,
+        material: Material::Measured(lut),
+    };
+    let half_height = 45.0;
+    let light = Vec3::NEG_X;
+    let off = render(&scene(half_height, light, NonLocal::OFF), &assets);
+    let on = NonLocal {
+        shadows: true,
+        transmission: true,
+    };
+    let shadowed = render(&scene(half_height, light, on), &assets);
+    assert_golden(
+        "non_local_shadowing_spheres",
+        &srgb8(&shadowed, 4.0),
+        TOLERANCE,
+    );
+
+    // On the big sphere facing the light, straight behind the small one (cos θ = 0.6): the
+    // poster's model lights it fully; with shadows it is in the umbra.
+    let behind = pixel_of(big_centre.x - 15.0, small_centre.y, half_height);
+    let (lit, dark) = (mean_red(&off, behind, 1), mean_red(&shadowed, behind, 1));
+    println!("behind the small sphere: {lit:.4} without shadows, {dark:.4} with");
+    assert!(lit > 0.15, "{lit}");
+    assert!(dark < 0.1 * lit, "not in shadow: {dark} vs {lit}");
+
+    // Outside the shadow (below it, 12 mm from its edge, cos θ = 0.6 too) nothing changes.
+    let beside = pixel_of(big_centre.x - 15.0, -14.0, half_height);
+    let (a, b) = (mean_red(&off, beside, 1), mean_red(&shadowed, beside, 1));
+    assert!((a - b).abs() < 0.01 * a, "outside the shadow: {a} vs {b}");
+
+    // The small sphere is convex and alone in front of the light: unchanged everywhere (no
+    // self-shadowing), its lit side, terminator and glowing shadow side alike.
+    let mut worst: f32 = 0.0;
+    for x in [-42.0, -36.0, -32.0, -28.0, -24.0] {
+        let p = pixel_of(x, small_centre.y, half_height);
+        let (a, b) = (mean_red(&off, p, 0), mean_red(&shadowed, p, 0));
+        worst = worst.max((a - b).abs() / a.max(1e-4));
+    }
+    assert!(
+        worst < 0.01,
+        "the lone sphere changed by {:.2} %",
+        worst * 100.0
+    );
+
+    // The edge is soft: from umbra to light across the shadow's border on the big sphere, the
+    // radiance passes through intermediate values over about the scattering length.
+    let sigma_mm = translucency.scattering_length_mm[0];
+    let mut profile = Vec::new();
+    let mm_per_px = 2.0 * half_height / SIZE as f32;
+    let edge_y = small_centre.y - 11.7; // the shadow's lower border (light along x)
+    let mut y = edge_y + 2.0 * sigma_mm;
+    while y > edge_y - 2.0 * sigma_mm {
+        let p = pixel_of(big_centre.x - 15.0, y, half_height);
+        profile.push(mean_red(&shadowed, p, 0) / mean_red(&off, p, 0).max(1e-6));
+        y -= mm_per_px;
+    }
+    let between = profile.iter().filter(|&&v| v > 0.2 && v < 0.8).count() as f32 * mm_per_px;
+    println!("penumbra: {between:.1} mm between 20 % and 80 % (σ = {sigma_mm:.1} mm)");
+    assert!(
+        between > 0.3 * sigma_mm && between < 4.0 * sigma_mm,
+        "penumbra {between} mm for σ = {sigma_mm} mm: {profile:?}"
+    );
+}
+
+/// A 4 mm wax slab lit from behind: its front glows by T(4 mm) (transmission), and is dark
+/// without it (a flat face turned away from the light has almost nothing in the table).
+#[test]
+fn a_thin_slab_glows_from_behind() {
+    let (lut, translucency) = wax();
+    let thickness_mm = 4.0;
+    let mesh = Mesh::cuboid(Vec3::new(30.0, 30.0, 0.5 * thickness_mm));
+    let curvature_per_mm = vec![0.0; mesh.positions.len()];
+    let view = lut.view_correction().clone();
+    let flat_back = lut.sample(0.0, PI, Filter::Bilinear) * view.sample(PI, 0.0);
+    let assets = SceneAssets {
+        mesh,
+        curvature_per_mm,
+        material: Material::Measured(lut),
+    };
+    let half_height = 40.0;
+    let from_behind = Vec3::NEG_Z;
+    let transmission = NonLocal {
+        shadows: false,
+        transmission: true,
+    };
+    let dark = render(&scene(half_height, from_behind, NonLocal::OFF), &assets);
+    let glowing = render(&scene(half_height, from_behind, transmission), &assets);
+    assert_golden(
+        "non_local_slab_from_behind",
+        &srgb8(&glowing, 4.0),
+        TOLERANCE,
+    );
+
+    // The centre of the face: radiance E/π · T(d) · g(θ = π, φ = 0).
+    let centre = pixel_of(0.0, 0.0, half_height);
+    let expected = translucency.transmission.evaluate(thickness_mm).x * view.sample(PI, 0.0).x / PI;
+    let found = mean_red(&glowing, centre, 4);
+    println!("slab: {found:.5} with transmission (T(d) says {expected:.5})");
+    assert!(
+        (found - expected).abs() < 0.03 * expected,
+        "{found} vs {expected}"
+    );
+    let without = mean_red(&dark, centre, 4);
+    assert!(
+        (without - flat_back.x / PI).abs() < 1e-3 + 0.02 * without,
+        "{without} vs the table's {}",
+        flat_back.x / PI
+    );
+    assert!(without < 0.2 * found, "{without} vs {found}");
+
+    // Twice as thick: dimmer by exp(−4 mm / ℓ).
+    let thick = Mesh::cuboid(Vec3::new(30.0, 30.0, thickness_mm));
+    let assets = SceneAssets {
+        curvature_per_mm: vec![0.0; thick.positions.len()],
+        mesh: thick,
+        ..assets
+    };
+    let thicker = mean_red(
+        &render(&scene(half_height, from_behind, transmission), &assets),
+        centre,
+        4,
+    );
+    let ratio = thicker / found;
+    let expected_ratio = (-thickness_mm / translucency.transmission.length_mm[0]).exp();
+    assert!(
+        (ratio - expected_ratio).abs() < 0.03 * expected_ratio,
+        "{ratio} vs {expected_ratio}"
+    );
+}
