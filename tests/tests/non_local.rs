@@ -253,7 +253,8 @@ fn a_thin_slab_glows_from_behind() {
     let glowing = render(&scene(half_height, from_behind, transmission), &assets);
     assert_golden(
         "non_local_slab_from_behind",
-        &srgb8(&glowing, 4.0),
+        // The glow is faint (T(4 mm) ≈ 0.02): shown 40× brighter.
+        &srgb8(&glowing, 40.0),
         TOLERANCE,
     );
 

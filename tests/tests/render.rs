@@ -978,6 +978,48 @@ fn prepare_rejects_unusable_input() {
         .unwrap_err();
     assert!(matches!(error, PrepareError::BadView));
 
+    // The non-local terms need millimetres per world unit: zero or NaN is an error.
+    for mm_per_world_unit in [0.0, f32::NAN] {
+        let error = renderer
+            .prepare(
+                device,
+                queue,
+                &FrameDesc {
+                    non_local: NonLocal {
+                        shadows: true,
+                        transmission: false,
+                    },
+                    mm_per_world_unit,
+                    ..frame(view, 1.0, &ok)
+                },
+            )
+            .unwrap_err();
+        println!("{error}");
+        assert!(matches!(error, PrepareError::BadUnits { .. }), "{error}");
+    }
+    // With them on, prepare returns the shadow pass to submit; with them off, nothing.
+    let shadow_pass = renderer
+        .prepare(
+            device,
+            queue,
+            &FrameDesc {
+                non_local: NonLocal {
+                    shadows: true,
+                    transmission: true,
+                },
+                ..frame(view, 1.0, &ok)
+            },
+        )
+        .unwrap();
+    assert_eq!(shadow_pass.len(), 1);
+    queue.submit(shadow_pass);
+    assert!(
+        renderer
+            .prepare(device, queue, &frame(view, 1.0, &ok))
+            .unwrap()
+            .is_empty()
+    );
+
     for target in [
         TargetDesc::new(wgpu::TextureFormat::Rgba8Uint),
         TargetDesc::new(format).with_sample_count(3),

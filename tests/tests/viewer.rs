@@ -317,3 +317,34 @@ fn dropping_a_mesh_and_a_fit_folder_loads_them() {
         [x0, y0, x1, y1]
     );
 }
+
+/// Pixels whose colour differs by more than 8/255 in a channel.
+fn changed_pixels(a: &Srgb8Image, b: &Srgb8Image) -> usize {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.abs_diff(*y) > 8))
+        .count()
+}
+
+#[test]
+fn cast_shadow_and_transmission_toggles() {
+    let mut harness = harness();
+    let poster = render(&mut harness);
+    harness.get_by_label("cast shadows").click();
+    harness.run_steps(2);
+    assert!(harness.state().settings().non_local.shadows);
+    assert_eq!(harness.state().error(), None);
+    let shadows = render(&mut harness);
+    // Lit from the left, the bunny's head and ears shadow parts of its body.
+    let by_shadows = changed_pixels(&poster, &shadows);
+    harness.get_by_label("transmission").click();
+    harness.run_steps(2);
+    assert!(harness.state().settings().non_local.transmission);
+    let both = render(&mut harness);
+    let by_transmission = changed_pixels(&shadows, &both);
+    println!("pixels changed: {by_shadows} by shadows, {by_transmission} by transmission");
+    assert!(by_shadows > 500, "{by_shadows}");
+    assert!(by_transmission > 100, "{by_transmission}");
+    assert_golden("viewer_non_local", &both, TOLERANCE);
+}

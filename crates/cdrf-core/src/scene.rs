@@ -818,6 +818,29 @@ lut = "out/measured.exr"
     }
 
     #[test]
+    fn non_local_keys_default_off() {
+        assert_eq!(parse(EXAMPLE).unwrap().non_local, NonLocal::OFF);
+        let text = EXAMPLE.replace(
+            "lut = \"out/measured.exr\"",
+            "lut = \"out/measured.exr\"\nshadows = true\ntransmission = true",
+        );
+        let scene = parse(&text).unwrap();
+        assert_eq!(
+            scene.non_local,
+            NonLocal {
+                shadows: true,
+                transmission: true
+            }
+        );
+        let text = EXAMPLE.replace(
+            "lut = \"out/measured.exr\"",
+            "lut = \"out/measured.exr\"\nshadows = \"yes\"",
+        );
+        let error = parse(&text).unwrap_err().to_string();
+        assert!(error.contains("shadows"), "{error}");
+    }
+
+    #[test]
     fn errors_name_the_file_and_key() {
         let cases = [
             ("width = 512", "width = 0", "[camera] width"),

@@ -197,6 +197,11 @@ struct Point {
 
 const BANDS: usize = 18;
 
+/// Fraction of a sphere's peak (per channel) below which the fit floors its model when
+/// weighting samples and estimating noise: values below `MODEL_FLOOR · peak` are not resolved
+/// (their weights, and their band's noise, are those of the floor).
+pub const MODEL_FLOOR: f32 = 1e-4;
+
 /// The fit with the requested view model, and the poster's g(φ)-only fit it started from (the
 /// same when the poster's model was requested), so both residuals can be reported.
 #[derive(Clone, Debug)]
@@ -325,7 +330,7 @@ fn reweight_points(
         .enumerate()
         .for_each(|(k, (sphere_points, noise))| {
             let peak = fit.curves[k].iter().fold(Vec3::ZERO, |m, v| m.max(*v));
-            let floor = (peak * 1e-4).max(Vec3::splat(1e-12));
+            let floor = (peak * MODEL_FLOOR).max(Vec3::splat(1e-12));
             let model = |p: &Point| {
                 (hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(&p.basis)).max(floor)
             };

@@ -3,6 +3,7 @@
 use std::time::Instant;
 
 use cdrf_core::lut::{CdrfLut, Filter};
+use cdrf_core::translucency::Translucency;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -16,6 +17,9 @@ use crate::sphere::{
     Circle, Detection, DetectionError, DroppedPixels, SphereView, detect_sphere, sample_sphere,
 };
 use crate::table::{TableError, build_table, smooth_curve};
+use crate::transmission::{
+    TransmissionError, TransmissionFit, TransmissionSettings, fit_curve_fit,
+};
 
 /// Settings of a fit. `Default` is what `cdrf-fit` uses.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -30,6 +34,8 @@ pub struct FitOptions {
     pub manifest_tolerance_px: f32,
     /// Fewest usable pixels a sphere must have.
     pub min_samples: usize,
+    /// Which shadow-side nodes the transmission profile is fitted to.
+    pub transmission: TransmissionSettings,
 }
 
 impl Default for FitOptions {
@@ -40,6 +46,7 @@ impl Default for FitOptions {
             edge_margin_px: 2.0,
             manifest_tolerance_px: 3.0,
             min_samples: 2000,
+            transmission: TransmissionSettings::default(),
         }
     }
 }
@@ -166,6 +173,8 @@ pub struct Timings {
     pub table_s: f64,
     /// Fitting the Gaussian CDRF.
     pub gaussian_s: f64,
+    /// Fitting the transmission profile.
+    pub transmission_s: f64,
     /// Measuring errors.
     pub evaluation_s: f64,
     /// Everything.
@@ -179,6 +188,13 @@ pub struct Fit {
     pub lut: CdrfLut,
     /// The Gaussian CDRF fitted to the same samples.
     pub gaussian: GaussianFit,
+    /// The transmission profile fitted to the shadow sides, or why it could not be. When it
+    /// was, `lut` carries it with Kubo's σ as the scattering length
+    /// ([`CdrfLut::translucency`]); when not, the table has no translucency and the fit
+    /// goes on (a data set of large or nearly opaque spheres still gives a table).
+    pub transmission: Result<TransmissionFit, TransmissionError>,
+    /// The settings the transmission fit ran with (also when it failed).
+    pub transmission_settings: TransmissionSettings,
     /// The fitted curves (chosen model and the poster's).
     pub curves: CurveFits,
     /// The chosen fit's curves as they entered the table (filled and smoothed along θ), per
@@ -306,7 +322,9 @@ fn sample_entry(
 }
 
 /// Fits a data set: samples every sphere (at most two decoded images in memory at a time), fits the curves and
-/// view correction, builds the table, fits the Gaussian CDRF, and measures both on every sphere.
+/// view correction, builds the table, fits the Gaussian CDRF and the transmission profile
+/// (attached to the table as its translucency when it succeeds; see [`Fit::transmission`]),
+/// and measures both models on every sphere.
 ///
 /// # Errors
 /// When an image cannot be read, shows no sphere (or not where the manifest says), has too few
@@ -354,7 +372,8 @@ pub fn fit_dataset(
 /// The fit from already sampled spheres (what [`fit_dataset`] does after reading images).
 ///
 /// # Errors
-/// When the table cannot be built or the Gaussian fit fails.
+/// When the table cannot be built or the Gaussian fit fails. A transmission profile that cannot
+/// be fitted is no error: [`Fit::transmission`] says why and the table has no translucency.
 pub fn fit_samples(
     samples: Vec<SphereSamples>,
     mut spheres: Vec<SphereReport>,
@@ -384,6 +403,19 @@ pub fn fit_samples(
     let started = Instant::now();
     let gaussian = fit_gaussian(&samples, &curves.chosen)?;
     timings.gaussian_s = started.elapsed().as_secs_f64();
+
+    let started = Instant::now();
+    let transmission = fit_curve_fit(&curves.chosen, &curvatures, &options.transmission).and_then(
+        |transmission| {
+            let translucency = Translucency::new(gaussian.model.sigma_mm(), transmission.profile)?;
+            Ok((transmission, translucency))
+        },
+    );
+    let (lut, transmission) = match transmission {
+        Ok((transmission, translucency)) => (lut.with_translucency(translucency), Ok(transmission)),
+        Err(error) => (lut, Err(error)),
+    };
+    timings.transmission_s = started.elapsed().as_secs_f64();
 
     let started = Instant::now();
     let errors = samples
@@ -425,12 +457,17 @@ pub fn fit_samples(
         })
         .collect();
     timings.evaluation_s = started.elapsed().as_secs_f64();
-    timings.total_s +=
-        timings.curves_s + timings.table_s + timings.gaussian_s + timings.evaluation_s;
+    timings.total_s += timings.curves_s
+        + timings.table_s
+        + timings.gaussian_s
+        + timings.transmission_s
+        + timings.evaluation_s;
 
     Ok(Fit {
         lut,
         gaussian,
+        transmission,
+        transmission_settings: options.transmission,
         curves,
         table_curves,
         samples,

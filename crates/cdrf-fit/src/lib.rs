@@ -1,6 +1,13 @@
 //! `cdrf-fit`: turns photographs of spheres lit by one directional light into a measured
 //! curvature-dependent reflectance function (CDRF) look-up table.
 //!
+//! The pipeline ([`fit`]): [`dataset`] (the manifest), [`image_io`] (linear radiance),
+//! [`sphere`] (silhouette, θ and φ per pixel), [`curves`] (f(θ; κ) and the view correction),
+//! [`table`] (the `CdrfLut`), [`gaussian_fit`] (Kubo's Gaussian CDRF, whose σ is also the
+//! scattering length of the table's translucency), [`transmission`] (the light through the
+//! material, `T(d) = A·exp(−d/ℓ)`, from the spheres' shadow sides), [`evaluate`] (errors) and
+//! [`outputs`] / [`plot`] (the files).
+//!
 //! ```
 //! use cdrf_fit::dataset::Dataset;
 //! use cdrf_fit::image_io::load_linear_image;
@@ -23,5 +30,6 @@ pub mod outputs;
 pub mod plot;
 pub mod sphere;
 pub mod table;
+pub mod transmission;
 
 pub use fit::{Fit, FitError, FitOptions, fit_dataset};

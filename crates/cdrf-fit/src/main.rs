@@ -1,6 +1,7 @@
 //! `cdrf-fit DIR --out OUTDIR`: a measured CDRF from a folder of sphere photographs.
 //!
-//! Reads `DIR/cdrf-dataset.toml`, fits, and writes `measured.exr`, `gaussian.toml`,
+//! Reads `DIR/cdrf-dataset.toml`, fits, and writes `measured.exr` (with the material's
+//! translucency when the shadow sides allow a transmission fit), `gaussian.toml`,
 //! `report.json` and plots into `OUTDIR` (see `cdrf_fit::outputs`). The input folder is never
 //! written to.
 
@@ -149,6 +150,22 @@ fn run(args: Args) -> anyhow::Result<()> {
             "Gaussian CDRF: sigma_mm = [{:.2}, {:.2}, {:.2}]",
             sigma[0], sigma[1], sigma[2]
         );
+        match &fit.transmission {
+            Ok(transmission) => {
+                let (a, l) = (
+                    transmission.profile.amplitude,
+                    transmission.profile.length_mm,
+                );
+                eprintln!(
+                    "transmission T(d) = A·exp(-d/l): A = [{:.4}, {:.4}, {:.4}], l = [{:.2}, {:.2}, {:.2}] mm (shadow side, theta >= {} deg)",
+                    a[0], a[1], a[2], l[0], l[1], l[2], transmission.settings.min_theta_deg
+                );
+            }
+            Err(error) => eprintln!(
+                "warning: no transmission profile ({error}); {} has no translucency",
+                cdrf_fit::outputs::MEASURED_LUT
+            ),
+        }
         for path in &written {
             eprintln!("wrote {}", path.display());
         }
@@ -159,6 +176,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             "spheres": fit.spheres.len(),
             "view_model": report.view_model,
             "gaussian": report.gaussian,
+            "transmission": report.transmission,
             "measured_error_lit_and_terminator": fit.errors.iter().map(|e| e.measured.lit_and_terminator.mean_relative_error).collect::<Vec<_>>(),
             "gaussian_error_lit_and_terminator": fit.errors.iter().map(|e| e.gaussian.lit_and_terminator.mean_relative_error).collect::<Vec<_>>(),
             "timings": report.timings,

@@ -2,11 +2,12 @@
 //!
 //! | file | content |
 //! |---|---|
-//! | `measured.exr` | the measured LUT ([`cdrf_core::lut_file`]) |
+//! | `measured.exr` | the measured LUT ([`cdrf_core::lut_file`]), with its translucency (scattering length and transmission profile) when the transmission fit succeeded |
 //! | `gaussian.toml` | the fitted Gaussian CDRF: `sigma_mm`, `scale` per RGB channel ([`GaussianParameters`]) |
-//! | `report.json` | per-radius curves, sample counts, residuals, g(φ), errors, timings ([`Report`]) |
+//! | `report.json` | per-radius curves, sample counts, residuals, g(φ), errors, the transmission profile and its quality, timings ([`Report`]) |
 //! | `radiance_vs_theta.svg` | radiance against θ per radius, raw (all φ) and φ-corrected: the poster's Fig. 2 |
 //! | `view_correction.svg` | g(φ), and the θ-dependent correction at a few θ |
+//! | `transmission.svg` | the shadow side against the chord d the light crossed, per sphere and channel (log), and the fitted T(d) = A·exp(−d/ℓ) per channel |
 //! | `lut.png` | a picture of the table (θ across, κ down): in colour, and log₁₀ of green below |
 //!
 //! Every file is written atomically (temporary file, then rename).
@@ -24,6 +25,9 @@ use crate::fit::{Fit, ModelErrors, SphereReport, Timings};
 use crate::plot::{
     ColorScale, Colormap, LinePlot, LineStyle, Series, heatmap_png, rgb_png_srgb, upscale_nearest,
 };
+use crate::transmission::{
+    ChordPoint, SphereCurve, TransmissionError, TransmissionFit, shadow_points,
+};
 
 /// The measured LUT.
 pub const MEASURED_LUT: &str = "measured.exr";
@@ -37,6 +41,8 @@ pub const RADIANCE_PLOT: &str = "radiance_vs_theta.svg";
 pub const VIEW_PLOT: &str = "view_correction.svg";
 /// The table as a picture.
 pub const LUT_PICTURE: &str = "lut.png";
+/// The transmission profile against the shadow sides.
+pub const TRANSMISSION_PLOT: &str = "transmission.svg";
 
 /// `gaussian.toml`: Kubo's Gaussian CDRF fitted to the same photographs (the format lives in
 /// cdrf-core, which reads it for rendering).
@@ -114,6 +120,8 @@ pub struct Report {
     pub view_model_residuals: ViewResiduals,
     /// The fitted Gaussian CDRF.
     pub gaussian: GaussianSummary,
+    /// The transmission profile and the table's translucency.
+    pub transmission: TransmissionSummary,
     /// Where the time went, seconds.
     pub timings: Timings,
 }
@@ -140,6 +148,102 @@ pub struct GaussianSummary {
     pub scale: [f32; 3],
     /// √(Σ residual² / Σ L²) over all samples, per channel.
     pub relative_rms: [f32; 3],
+}
+
+/// The transmission fit in the report (`cdrf_fit::transmission`). Per-channel values are
+/// `[R, G, B]`.
+#[derive(Clone, Debug, Serialize)]
+pub struct TransmissionSummary {
+    /// Smallest θ of the shadow-side nodes used, degrees.
+    pub min_theta_deg: f32,
+    /// Why the profile could not be fitted; then `measured.exr` has no translucency and the
+    /// fields below are absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// The fit, when it succeeded.
+    #[serde(flatten)]
+    pub fitted: Option<FittedTransmission>,
+}
+
+/// A successful transmission fit in the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct FittedTransmission {
+    /// T(0) per channel, π·L/E.
+    pub amplitude: [f32; 3],
+    /// Decay length ℓ per channel, mm.
+    pub length_mm: [f32; 3],
+    /// The table's scattering length (Kubo's σ) per channel, mm.
+    pub scattering_length_mm: [f32; 3],
+    /// Nodes fitted per channel.
+    pub points: [usize; 3],
+    /// Shortest and longest chord per channel, mm.
+    pub chord_range_mm: [[f32; 2]; 3],
+    /// Weighted relative RMS error of T(d) against the nodes per channel, relative to T(d)
+    /// (linear space).
+    pub relative_rms: [f32; 3],
+    /// Per sphere (input order): weighted mean of f / T(d) over its nodes per channel (null:
+    /// no nodes). 1 everywhere when the glow depends on the chord alone.
+    pub spheres: Vec<TransmissionSphere>,
+}
+
+/// One sphere of [`FittedTransmission`].
+#[derive(Clone, Debug, Serialize)]
+pub struct TransmissionSphere {
+    /// Radius, mm.
+    pub radius_mm: f32,
+    /// Nodes fitted per channel.
+    pub points: [usize; 3],
+    /// Weighted mean of f / T(d) per channel.
+    pub mean_ratio: [Option<f32>; 3],
+}
+
+impl TransmissionSummary {
+    fn new(fit: &Fit) -> Self {
+        match &fit.transmission {
+            Ok(transmission) => Self {
+                min_theta_deg: transmission.settings.min_theta_deg,
+                error: None,
+                fitted: Some(FittedTransmission::new(fit, transmission)),
+            },
+            Err(error) => Self {
+                min_theta_deg: fit.transmission_settings.min_theta_deg,
+                error: Some(error.to_string()),
+                fitted: None,
+            },
+        }
+    }
+}
+
+impl FittedTransmission {
+    fn new(fit: &Fit, transmission: &TransmissionFit) -> Self {
+        let channels = &transmission.channels;
+        let spheres = (0..fit.samples.len())
+            .map(|k| TransmissionSphere {
+                radius_mm: radius_mm(fit, k),
+                points: std::array::from_fn(|c| {
+                    channels[c].points.iter().filter(|p| p.sphere == k).count()
+                }),
+                mean_ratio: std::array::from_fn(|c| {
+                    channels[c].mean_ratio_per_sphere.get(k).copied().flatten()
+                }),
+            })
+            .collect();
+        Self {
+            amplitude: transmission.profile.amplitude,
+            length_mm: transmission.profile.length_mm,
+            scattering_length_mm: fit
+                .lut
+                .translucency()
+                .map_or(fit.gaussian.model.sigma_mm(), |t| t.scattering_length_mm),
+            points: std::array::from_fn(|c| channels[c].points.len()),
+            chord_range_mm: std::array::from_fn(|c| {
+                let (lo, hi) = channels[c].chord_range_mm;
+                [lo, hi]
+            }),
+            relative_rms: std::array::from_fn(|c| channels[c].relative_rms),
+            spheres,
+        }
+    }
 }
 
 /// Residuals of the curve fit, lit and terminator blocks of all spheres.
@@ -226,6 +330,7 @@ impl Report {
                 scale: fit.gaussian.model.scale(),
                 relative_rms: fit.gaussian.relative_rms,
             },
+            transmission: TransmissionSummary::new(fit),
             timings: fit.timings,
         }
     }
@@ -345,6 +450,7 @@ pub fn write_outputs(
     put(REPORT, &json)?;
     put(RADIANCE_PLOT, radiance_plot(fit).as_bytes())?;
     put(VIEW_PLOT, view_plot(fit).as_bytes())?;
+    put(TRANSMISSION_PLOT, transmission_plot(fit).as_bytes())?;
 
     let picture = lut_picture(fit);
     let mut png = Vec::new();
@@ -424,14 +530,7 @@ fn view_plot(fit: &Fit) -> String {
     )
     .with_x_range(0.0, 90.0)
     .with_size_px(900, 560);
-    for (c, (name, color)) in [
-        ("R", [213, 94, 0]),
-        ("G", [0, 158, 115]),
-        ("B", [0, 114, 178]),
-    ]
-    .into_iter()
-    .enumerate()
-    {
+    for (c, (name, color)) in CHANNEL_COLORS.into_iter().enumerate() {
         let points = chosen
             .g_phi
             .iter()
@@ -458,6 +557,124 @@ fn view_plot(fit: &Fit) -> String {
                 Series::new(format!("G, θ = {theta_deg}°"), color, points)
                     .with_style(LineStyle::Dashed),
             );
+        }
+    }
+    plot.to_svg()
+}
+
+/// Radius of sphere `k`, mm: the manifest's, or 1/κ of its samples (a fit without reports).
+fn radius_mm(fit: &Fit, k: usize) -> f32 {
+    fit.spheres
+        .get(k)
+        .map_or(1.0 / fit.samples[k].curvature_per_mm, |s| s.radius_mm)
+}
+
+/// Channel names and colours of the per-channel plots (Okabe & Ito vermillion, bluish green,
+/// blue).
+const CHANNEL_COLORS: [(&str, [u8; 3]); 3] = [
+    ("R", [213, 94, 0]),
+    ("G", [0, 158, 115]),
+    ("B", [0, 114, 178]),
+];
+
+/// The shadow side of every sphere against the chord the light crossed (markers coloured by
+/// radius, all three channels), and the fitted T(d) per channel (lines in the channel's
+/// colour), log radiance. When the fit failed, the nodes it would have used and the reason.
+fn transmission_plot(fit: &Fit) -> String {
+    let (points, title) = match &fit.transmission {
+        Ok(transmission) => (
+            std::array::from_fn(|c| transmission.channels[c].points.clone()),
+            format!(
+                "Shadow side (θ ≥ {}°; R, G, B dots per radius) against the chord d = 2r·|cos θ|; lines: T(d)",
+                transmission.settings.min_theta_deg
+            ),
+        ),
+        Err(error) => {
+            let settings = &fit.transmission_settings;
+            let spheres: Vec<SphereCurve<'_>> = fit
+                .samples
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| *k < fit.curves.chosen.curves.len())
+                .map(|(k, s)| SphereCurve::from_fit(&fit.curves.chosen, k, s.curvature_per_mm))
+                .collect();
+            (
+                shadow_points(&spheres, settings),
+                format!(
+                    "Shadow side (θ ≥ {}°; R, G, B dots per radius) against the chord d; T(d) not fitted: {}",
+                    settings.min_theta_deg,
+                    match error {
+                        TransmissionError::TooFewPoints { .. } => "too few points",
+                        TransmissionError::NoDecay { .. } => "no decay",
+                        _ => "see report.json",
+                    }
+                ),
+            )
+        }
+    };
+    let radii: Vec<f32> = fit
+        .samples
+        .iter()
+        .map(|s| 1.0 / s.curvature_per_mm)
+        .collect();
+    let (lo, hi) = radii
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(a, b), r| (a.min(*r), b.max(*r)));
+    let radius_color = |r: f32| {
+        let t = if hi > lo { (r - lo) / (hi - lo) } else { 0.5 };
+        Colormap::Viridis.color_at(0.9 * t)
+    };
+    let mut plot = LinePlot::new(
+        title,
+        "d, chord the light crossed (mm)",
+        "π·L/E (view correction divided out)",
+    )
+    .with_log_y(true)
+    .with_size_px(900, 560);
+    let sphere_points = |points: &[ChordPoint], k: usize| -> Vec<(f32, f32)> {
+        points
+            .iter()
+            .filter(|p| p.sphere == k)
+            .map(|p| (p.chord_mm, p.value))
+            .collect()
+    };
+    for (k, &radius_mm) in radii.iter().enumerate() {
+        for (c, channel_points) in points.iter().enumerate() {
+            // One legend entry per sphere (its colour), on the first channel.
+            let label = if c == 0 {
+                // To 0.01 mm: 1/κ of a 15 mm sphere reads 14.999999.
+                format!("r = {} mm", (radius_mm * 100.0).round() / 100.0)
+            } else {
+                String::new()
+            };
+            plot = plot.with_series(
+                Series::new(
+                    label,
+                    radius_color(radius_mm),
+                    sphere_points(channel_points, k),
+                )
+                .with_style(LineStyle::Markers),
+            );
+        }
+    }
+    if let Ok(transmission) = &fit.transmission {
+        let profile = &transmission.profile;
+        for (c, (name, color)) in CHANNEL_COLORS.into_iter().enumerate() {
+            let (start, end) = transmission.channels[c].chord_range_mm;
+            let curve = (0..=200)
+                .map(|i| {
+                    let d = start + (end - start) * i as f32 / 200.0;
+                    (d, profile.evaluate(d)[c])
+                })
+                .collect();
+            plot = plot.with_series(Series::new(
+                format!(
+                    "T(d) {name}: A = {:.3}, ℓ = {:.2} mm",
+                    profile.amplitude[c], profile.length_mm[c]
+                ),
+                color,
+                curve,
+            ));
         }
     }
     plot.to_svg()

@@ -122,6 +122,47 @@ fn measured_error_is_at_most_half_the_gaussian_cdrf_error_at_every_radius() {
     }
 }
 
+/// The light through the bundled wax spheres: T(d) decays per channel over a length a little
+/// longer than the material's diffusion length (10.5, 6.9, 4.7 mm: the chord is longer than
+/// the way light takes from the nearest lit surface), red longest, and the table carries it.
+#[test]
+fn transmission_decays_over_about_the_diffusion_length() {
+    let fit = wax_fit();
+    let transmission = fit.transmission.as_ref().expect("bundled spheres transmit");
+    let (amplitude, length_mm) = (
+        transmission.profile.amplitude,
+        transmission.profile.length_mm,
+    );
+    println!("transmission: A = {amplitude:?}, ℓ = {length_mm:?} mm");
+    for (c, diffusion_mm) in [10.5_f32, 6.9, 4.7].into_iter().enumerate() {
+        let channel = &transmission.channels[c];
+        println!(
+            "  channel {c}: {} points, d {:?} mm, relative RMS {:.3}, per-sphere f/T {:?}",
+            channel.points.len(),
+            channel.chord_range_mm,
+            channel.relative_rms,
+            channel.mean_ratio_per_sphere
+        );
+        assert!(
+            (diffusion_mm..1.5 * diffusion_mm).contains(&length_mm[c]),
+            "ℓ[{c}] = {} mm, diffusion length {diffusion_mm} mm",
+            length_mm[c]
+        );
+        assert!(
+            (0.01..0.1).contains(&amplitude[c]),
+            "A[{c}] = {}",
+            amplitude[c]
+        );
+    }
+    assert!(length_mm[0] > length_mm[1] && length_mm[1] > length_mm[2]);
+    let translucency = fit.lut.translucency().expect("table has translucency");
+    assert_eq!(translucency.transmission, transmission.profile);
+    assert_eq!(
+        translucency.scattering_length_mm,
+        fit.gaussian.model.sigma_mm()
+    );
+}
+
 #[test]
 fn theta_dependent_view_correction_lowers_the_residual() {
     let fit = wax_fit();

@@ -15,12 +15,13 @@ use cdrf_core::image_file::linear_to_srgb;
 use cdrf_fit::image_io::load_linear_image;
 
 /// The files `cdrf-fit` writes into OUTDIR, sorted.
-const OUTPUTS: [&str; 6] = [
+const OUTPUTS: [&str; 7] = [
     "gaussian.toml",
     "lut.png",
     "measured.exr",
     "radiance_vs_theta.svg",
     "report.json",
+    "transmission.svg",
     "view_correction.svg",
 ];
 
@@ -547,7 +548,7 @@ fn three_spheres_give_every_output() {
         run.stderr
     );
 
-    // Exactly the six outputs: no temporary or partial file left behind.
+    // Exactly the seven outputs: no temporary or partial file left behind.
     assert_eq!(cmd.out_files(), OUTPUTS);
     for name in OUTPUTS {
         let len = std::fs::metadata(cmd.out().join(name))
@@ -613,6 +614,71 @@ fn three_spheres_give_every_output() {
         ["sphere_r15.exr", "sphere_r30.exr", "sphere_r50.exr"]
     );
     assert_eq!(report["table"]["curvature_count"], 64);
+
+    // The transmission profile: in the report, and in measured.exr with Kubo's σ as the
+    // scattering length.
+    let section = &report["transmission"];
+    assert_eq!(section["min_theta_deg"], 110.0, "{section}");
+    assert!(section.get("error").is_none(), "{section}");
+    let per_channel = |key: &str| -> Vec<f64> {
+        section[key]
+            .as_array()
+            .unwrap_or_else(|| panic!("no {key} in {section}"))
+            .iter()
+            .map(|v| v.as_f64().expect("number"))
+            .collect()
+    };
+    for key in [
+        "amplitude",
+        "length_mm",
+        "scattering_length_mm",
+        "relative_rms",
+    ] {
+        let values = per_channel(key);
+        assert_eq!(values.len(), 3, "{key}: {values:?}");
+        assert!(
+            values.iter().all(|v| v.is_finite() && *v > 0.0),
+            "{key}: {values:?}"
+        );
+    }
+    assert!(per_channel("points").iter().all(|&n| n >= 3.0), "{section}");
+    assert_eq!(section["chord_range_mm"].as_array().map(Vec::len), Some(3));
+    let ratio_spheres = section["spheres"].as_array().expect("spheres");
+    assert_eq!(ratio_spheres.len(), 3);
+    assert_eq!(ratio_spheres[0]["radius_mm"], 15.0);
+    assert_eq!(
+        ratio_spheres[0]["mean_ratio"].as_array().map(Vec::len),
+        Some(3)
+    );
+    let translucency = lut
+        .translucency()
+        .expect("measured.exr carries translucency");
+    for c in 0..3 {
+        assert_close(
+            translucency.scattering_length_mm[c],
+            gaussian.sigma_mm[c],
+            1e-5 * gaussian.sigma_mm[c],
+            "scattering length in measured.exr and σ in gaussian.toml",
+        );
+        assert_close(
+            translucency.transmission.amplitude[c],
+            per_channel("amplitude")[c] as f32,
+            1e-6,
+            "amplitude in measured.exr and report.json",
+        );
+        assert_close(
+            translucency.transmission.length_mm[c],
+            per_channel("length_mm")[c] as f32,
+            1e-4,
+            "length in measured.exr and report.json",
+        );
+    }
+    let svg = std::fs::read_to_string(cmd.out().join("transmission.svg")).expect("plot");
+    assert!(
+        svg.starts_with("<svg") && svg.contains("T(d) G"),
+        "transmission.svg"
+    );
+    assert!(run.stderr.contains("transmission T(d)"), "{}", run.stderr);
 }
 
 #[test]
@@ -622,7 +688,7 @@ fn json_summary_on_stdout_and_quiet_stderr() {
     assert!(run.stderr.is_empty(), "--quiet printed:\n{}", run.stderr);
     let summary: serde_json::Value =
         serde_json::from_str(&run.stdout).expect("stdout is one JSON document");
-    for key in ["outputs", "spheres", "gaussian", "timings"] {
+    for key in ["outputs", "spheres", "gaussian", "transmission", "timings"] {
         assert!(summary.get(key).is_some(), "no {key:?} in {summary}");
     }
     assert_eq!(summary["spheres"], 2);
