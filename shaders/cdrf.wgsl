@@ -37,6 +37,8 @@ const MAX_SHADOW_LIGHTS: u32 = 4u;
 // and a Vogel spiral out to 2σ.
 const PENUMBRA_TAPS: u32 = 12u;
 const GOLDEN_ANGLE: f32 = 2.39996322972865;
+// Taps read before deciding whether the point is in a penumbra at all.
+const PROBE_TAPS: u32 = 5u;
 // Principal curvatures may differ from the mean curvature the mesh carries (saddles, cylinders):
 // an occluder counts only if it is nearer the light than this much extra curvature explains.
 const CURVATURE_ALLOWANCE_PER_MM: f32 = 0.05;
@@ -91,6 +93,8 @@ struct Material {
     // T(d) = amplitude · exp(−d / length), π·L/E and mm per channel (amplitude 0: none).
     transmission_amplitude: vec4<f32>,
     transmission_length_mm: vec4<f32>,
+    // Gaussian weight per channel of penumbra tap k (radius 2σ_max·√(k / PENUMBRA_TAPS)).
+    penumbra_weights: array<vec4<f32>, PENUMBRA_TAPS>,
 }
 
 struct ShadowLight {
@@ -378,10 +382,27 @@ fn non_local_terms(
     // Jimenez 2014): a few taps leave fine noise instead of contour bands in the penumbra.
     let spin = 6.28318530718 * fract(52.9829189 * fract(dot(pixel, vec2<f32>(0.06711056, 0.00583715))));
     var unoccluded = vec3<f32>(0.0);
-    var through = vec3<f32>(0.0);
     var weights = vec3<f32>(0.0);
+    // Occluded columns: their weight, and their mean distance through the occluder.
+    var through_weight = vec3<f32>(0.0);
+    var through_mm = 0.0;
+    var through_count = 0.0;
     var thin = vec3<f32>(0.0);
-    for (var k = 0u; k < taps; k++) {
+    var counted = 0u;
+    var lit = 0u;
+    for (var j = 0u; j < taps; j++) {
+        // The centre first, then the PROBE_TAPS − 1 outermost taps, then the rest: when the
+        // probes agree (all lit or all occluded), the point is not in a penumbra and the rest
+        // are skipped.
+        var k = j;
+        if j >= 1u && j < PROBE_TAPS {
+            k = PENUMBRA_TAPS - j;
+        } else if j >= PROBE_TAPS {
+            k = j - PROBE_TAPS + 1u;
+        }
+        if j == PROBE_TAPS && (lit == counted || lit == 0u) {
+            break;
+        }
         // Tap k of a Vogel spiral over the disc of radius 2σ on the tangent plane (tap 0 at the
         // centre), moved onto the local shape: `surface`, with normal `facing`.
         let radius = 2.0 * sigma_max * sqrt(f32(k) / f32(PENUMBRA_TAPS));
@@ -421,17 +442,20 @@ fn non_local_terms(
         if k > 0u && expected > -1e29 && occluder > expected + tolerance {
             continue;
         }
+        // Gaussian weight of the tap per channel (σ per channel), precomputed per material.
         var weight = vec3<f32>(1.0);
         if taps > 1u {
-            weight = exp(-0.5 * radius * radius / max(sigma * sigma, vec3<f32>(1e-6)));
+            weight = material.penumbra_weights[k].xyz;
         }
         weights += weight;
+        counted += 1u;
         if occluder < expected - tolerance {
-            if (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u {
-                through += weight * transmission_profile(surface.z - occluder);
-            }
+            through_weight += weight;
+            through_mm += surface.z - occluder;
+            through_count += 1.0;
         } else {
             unoccluded += weight;
+            lit += 1u;
             if k == 0u && (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u {
                 // Thinner than the local shape by more than the tolerance.
                 thin = max(
@@ -447,8 +471,11 @@ fn non_local_terms(
     // T(d) is measured on the spheres at θ ≥ 110°; nearer the terminator sideways diffusion
     // (the CDRF) dominates, so the thin-part term fades in from θ = 90° to 110°.
     terms.transmission = thin * smoothstep(0.0, 0.342, n.z);
-    if (NON_LOCAL & NON_LOCAL_SHADOWS) != 0u {
-        terms.transmission += through / weights;
+    if (NON_LOCAL & NON_LOCAL_SHADOWS) != 0u && (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u
+        && through_count > 0.0 {
+        // Light through the occluders, at their mean thickness (one T(d) per light).
+        terms.transmission += through_weight / weights
+            * transmission_profile(through_mm / through_count);
     }
     return terms;
 }

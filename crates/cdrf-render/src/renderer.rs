@@ -33,8 +33,10 @@ const SHADOWS_UNIFORM_SIZE: u64 = (64 + 16) * MAX_SHADOW_LIGHTS as u64 + 16;
 const VERTEX_STRIDE: u64 = 28;
 /// Size of the `Frame` uniform: clip_from_world, to_camera, exposure_count, lights.
 const FRAME_UNIFORM_SIZE: u64 = 64 + 16 + 16 + 32 * MAX_LIGHTS as u64;
-/// Size of the `Material` uniform: eight vec4s.
-const MATERIAL_UNIFORM_SIZE: u64 = 8 * 16;
+/// Penumbra taps per shadowed light (`PENUMBRA_TAPS` in the shader).
+const PENUMBRA_TAPS: usize = 12;
+/// Size of the `Material` uniform: eight vec4s and a tap weight per penumbra tap.
+const MATERIAL_UNIFORM_SIZE: u64 = (8 + PENUMBRA_TAPS as u64) * 16;
 /// Size of one `Draw` uniform: two mat4s and a vec4.
 const DRAW_UNIFORM_SIZE: u64 = 64 + 64 + 16;
 
@@ -790,6 +792,9 @@ impl Renderer {
             .vec4(scattering_length_mm)
             .vec4(transmission_amplitude)
             .vec4(transmission_length_mm);
+        for weight in penumbra_weights(scattering_length_mm.truncate()) {
+            uniforms.vec4(weight.extend(0.0));
+        }
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("cdrf material uniforms"),
             contents: &uniforms.0,
@@ -1473,5 +1478,20 @@ fn create_shadow_pipeline(
         fragment: None,
         multiview_mask: None,
         cache: None,
+    })
+}
+
+/// The Gaussian weight per channel of each penumbra tap: tap k lies at radius
+/// `2·σ_max·√(k / PENUMBRA_TAPS)` on the surface (a Vogel spiral, see the shader).
+fn penumbra_weights(sigma_mm: Vec3) -> [Vec3; PENUMBRA_TAPS] {
+    let sigma_max = sigma_mm.max_element();
+    std::array::from_fn(|k| {
+        if sigma_max <= 0.0 {
+            return Vec3::ONE;
+        }
+        let radius_squared = 4.0 * sigma_max * sigma_max * k as f32 / PENUMBRA_TAPS as f32;
+        Vec3::from_array(sigma_mm.to_array().map(|sigma| {
+            (-0.5 * radius_squared / (sigma * sigma).max(1e-12)).exp()
+        }))
     })
 }

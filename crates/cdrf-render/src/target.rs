@@ -113,7 +113,7 @@ impl Options {
         gaussian_lut_columns: 361,
         depth_compare: CompareFunction::Less,
         cull_back_faces: true,
-        shadow_map_resolution: 1024,
+        shadow_map_resolution: 512,
         shadow_bias_mm: 0.5,
     };
 }
