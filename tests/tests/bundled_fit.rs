@@ -64,4 +64,23 @@ fn bundled_fit_is_current() {
         gaussian.view_correction_from.as_deref(),
         Some(std::path::Path::new("measured.exr"))
     );
+
+    // The material terms of the non-local modes travel with the table.
+    let (Some(bundled_terms), Some(fresh_terms)) = (bundled.translucency(), fit.lut.translucency())
+    else {
+        panic!("the bundled or the fresh table has no translucency terms: {refresh}");
+    };
+    let pairs = [
+        (bundled_terms.scattering_length_mm, fresh_terms.scattering_length_mm),
+        (bundled_terms.transmission.amplitude, fresh_terms.transmission.amplitude),
+        (bundled_terms.transmission.length_mm, fresh_terms.transmission.length_mm),
+    ];
+    for (a, b) in pairs {
+        for c in 0..3 {
+            assert!(
+                (a[c] - b[c]).abs() <= 1e-4 * b[c].abs(),
+                "translucency terms differ ({a:?} vs {b:?}): {refresh}"
+            );
+        }
+    }
 }
