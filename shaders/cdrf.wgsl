@@ -24,7 +24,8 @@
 //   - transmission: light of occluded columns arrives through d mm of the occluder (light-space
 //     depth difference) as T(d); where the point's own column is thinner than the sphere
 //     predicts (a fin, a slab lit from behind) T(d) − T(d_sphere) is added.
-// Per light: f → V·f (shadows) + T_occluded + T_thin (transmission), all times g(θ, φ).
+// Per light: f → V·f (shadows) + T_occluded + T_thin (transmission), all times g(θ, φ). The
+// terms are evaluated per vertex and interpolated (they vary over σ); Lambert's, per pixel.
 
 const PI: f32 = 3.14159265358979;
 const FRAC_1_PI: f32 = 0.318309886183791;
@@ -130,6 +131,7 @@ struct Draw {
 @group(3) @binding(1) var shadow_maps: texture_depth_2d_array;
 
 struct VertexIn {
+    @builtin(vertex_index) index: u32,
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) curvature_per_mm: f32,
@@ -142,8 +144,22 @@ struct VertexOut {
     @location(0) @interpolate(perspective, centroid) world_position: vec3<f32>,
     @location(1) @interpolate(perspective, centroid) world_normal: vec3<f32>,
     @location(2) @interpolate(perspective, centroid) curvature_per_mm: f32,
+    // Non-local terms of the shadowed lights 0–3, evaluated per vertex (see vs_main):
+    // visibility (xyz) and transmission (xyz, π·L/E) each.
+    @location(3) @interpolate(perspective, centroid) visibility_0: vec3<f32>,
+    @location(4) @interpolate(perspective, centroid) transmission_0: vec3<f32>,
+    @location(5) @interpolate(perspective, centroid) visibility_1: vec3<f32>,
+    @location(6) @interpolate(perspective, centroid) transmission_1: vec3<f32>,
+    @location(7) @interpolate(perspective, centroid) visibility_2: vec3<f32>,
+    @location(8) @interpolate(perspective, centroid) transmission_2: vec3<f32>,
+    @location(9) @interpolate(perspective, centroid) visibility_3: vec3<f32>,
+    @location(10) @interpolate(perspective, centroid) transmission_3: vec3<f32>,
 }
 
+// The non-local terms of a translucent material vary over the scattering length σ (light
+// diffuses under a shadow's edge over about σ), so they are evaluated per vertex and
+// interpolated: meshes whose edges are well below σ (millimetres for wax) resolve them, at a
+// cost per vertex instead of per pixel. Lambert (opaque, hard edges) is evaluated per pixel.
 @vertex
 fn vs_main(vertex: VertexIn) -> VertexOut {
     let world = draw.world_from_model * vec4<f32>(vertex.position, 1.0);
@@ -152,7 +168,65 @@ fn vs_main(vertex: VertexIn) -> VertexOut {
     out.world_position = world.xyz / world.w;
     out.world_normal = (draw.normal_from_model * vec4<f32>(vertex.normal, 0.0)).xyz;
     out.curvature_per_mm = vertex.curvature_per_mm * draw.curvature_scale.x;
+    out.visibility_0 = vec3<f32>(1.0);
+    out.visibility_1 = vec3<f32>(1.0);
+    out.visibility_2 = vec3<f32>(1.0);
+    out.visibility_3 = vec3<f32>(1.0);
+    out.transmission_0 = vec3<f32>(0.0);
+    out.transmission_1 = vec3<f32>(0.0);
+    out.transmission_2 = vec3<f32>(0.0);
+    out.transmission_3 = vec3<f32>(0.0);
+    if NON_LOCAL != 0u && MODEL != MODEL_LAMBERT && MODEL != MODEL_CURVATURE {
+        let count = min(u32(shadows.params.w), u32(frame.exposure_count.y));
+        let normal = normalize(out.world_normal);
+        // Decorrelates neighbouring vertices' tap spirals.
+        let seed = vec2<f32>(f32(vertex.index % 4096u), f32(vertex.index / 4096u));
+        if count > 0u {
+            let terms = non_local_terms(0u, seed, out.world_position, normal, out.curvature_per_mm);
+            out.visibility_0 = terms.visibility;
+            out.transmission_0 = terms.transmission;
+        }
+        if count > 1u {
+            let terms = non_local_terms(1u, seed, out.world_position, normal, out.curvature_per_mm);
+            out.visibility_1 = terms.visibility;
+            out.transmission_1 = terms.transmission;
+        }
+        if count > 2u {
+            let terms = non_local_terms(2u, seed, out.world_position, normal, out.curvature_per_mm);
+            out.visibility_2 = terms.visibility;
+            out.transmission_2 = terms.transmission;
+        }
+        if count > 3u {
+            let terms = non_local_terms(3u, seed, out.world_position, normal, out.curvature_per_mm);
+            out.visibility_3 = terms.visibility;
+            out.transmission_3 = terms.transmission;
+        }
+    }
     return out;
+}
+
+// The per-vertex terms of shadowed light `index`, interpolated.
+fn vertex_terms(in: VertexOut, index: u32) -> NonLocalTerms {
+    var terms: NonLocalTerms;
+    switch index {
+        case 0u: {
+            terms.visibility = in.visibility_0;
+            terms.transmission = in.transmission_0;
+        }
+        case 1u: {
+            terms.visibility = in.visibility_1;
+            terms.transmission = in.transmission_1;
+        }
+        case 2u: {
+            terms.visibility = in.visibility_2;
+            terms.transmission = in.transmission_2;
+        }
+        default: {
+            terms.visibility = in.visibility_3;
+            terms.transmission = in.transmission_3;
+        }
+    }
+    return terms;
 }
 
 // Texture coordinate of a value on a uniform axis over [0, extent] with `count` texels whose
@@ -507,13 +581,18 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                 f = lut_value(in.curvature_per_mm, theta);
             }
             if NON_LOCAL != 0u && i < u32(shadows.params.w) {
-                let terms = non_local_terms(
-                    i,
-                    in.clip.xy,
-                    in.world_position,
-                    normal,
-                    in.curvature_per_mm,
-                );
+                var terms: NonLocalTerms;
+                if MODEL == MODEL_LAMBERT {
+                    terms = non_local_terms(
+                        i,
+                        in.clip.xy,
+                        in.world_position,
+                        normal,
+                        in.curvature_per_mm,
+                    );
+                } else {
+                    terms = vertex_terms(in, i);
+                }
                 if (NON_LOCAL & NON_LOCAL_SHADOWS) != 0u {
                     f *= terms.visibility;
                 }

@@ -71,9 +71,18 @@ fn bundled_fit_is_current() {
         panic!("the bundled or the fresh table has no translucency terms: {refresh}");
     };
     let pairs = [
-        (bundled_terms.scattering_length_mm, fresh_terms.scattering_length_mm),
-        (bundled_terms.transmission.amplitude, fresh_terms.transmission.amplitude),
-        (bundled_terms.transmission.length_mm, fresh_terms.transmission.length_mm),
+        (
+            bundled_terms.scattering_length_mm,
+            fresh_terms.scattering_length_mm,
+        ),
+        (
+            bundled_terms.transmission.amplitude,
+            fresh_terms.transmission.amplitude,
+        ),
+        (
+            bundled_terms.transmission.length_mm,
+            fresh_terms.transmission.length_mm,
+        ),
     ];
     for (a, b) in pairs {
         for c in 0..3 {

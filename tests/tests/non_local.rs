@@ -234,7 +234,8 @@ fn a_shape_shadowing_another() {
 fn a_thin_slab_glows_from_behind() {
     let (lut, translucency) = wax();
     let thickness_mm = 4.0;
-    let mesh = Mesh::cuboid(Vec3::new(30.0, 30.0, 0.5 * thickness_mm));
+    // 2 mm quads: the terms are evaluated per vertex.
+    let mesh = Mesh::cuboid(Vec3::new(30.0, 30.0, 0.5 * thickness_mm), 30);
     let curvature_per_mm = vec![0.0; mesh.positions.len()];
     let view = lut.view_correction().clone();
     let flat_back = lut.sample(0.0, PI, Filter::Bilinear) * view.sample(PI, 0.0);
@@ -276,7 +277,7 @@ fn a_thin_slab_glows_from_behind() {
     assert!(without < 0.2 * found, "{without} vs {found}");
 
     // Twice as thick: dimmer by exp(−4 mm / ℓ).
-    let thick = Mesh::cuboid(Vec3::new(30.0, 30.0, thickness_mm));
+    let thick = Mesh::cuboid(Vec3::new(30.0, 30.0, thickness_mm), 30);
     let assets = SceneAssets {
         curvature_per_mm: vec![0.0; thick.positions.len()],
         mesh: thick,

@@ -91,7 +91,9 @@
 //! orthographic map per light, for the first [`MAX_SHADOW_LIGHTS`] lights, fitted to the
 //! bounding sphere of the frame's draws ([`Options::shadow_map_resolution`]) — and returns its
 //! command buffer, which the host submits before the commands of its own pass (egui-wgpu's
-//! callbacks return it from their `prepare`). A measured table carries its material terms
+//! callbacks return it from their `prepare`). The shading reads the maps per vertex (the terms
+//! vary over the scattering length, millimetres, so meshes with shorter edges resolve them;
+//! Lambert's hard shadows per pixel). A measured table carries its material terms
 //! (LUT file format version 2); the Gaussian CDRF uses its σ as scattering length and has no
 //! T(d); Lambert gets hard shadows.
 

@@ -472,7 +472,8 @@ impl Renderer {
                 uniform(0, SHADOWS_UNIFORM_SIZE, false),
                 wgpu::BindGroupLayoutEntry {
                     binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    // Read per vertex (translucent materials) and per pixel (Lambert).
+                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
                     ty: wgpu::BindingType::Texture {
                         sample_type: wgpu::TextureSampleType::Depth,
                         view_dimension: wgpu::TextureViewDimension::D2Array,
@@ -1490,8 +1491,10 @@ fn penumbra_weights(sigma_mm: Vec3) -> [Vec3; PENUMBRA_TAPS] {
             return Vec3::ONE;
         }
         let radius_squared = 4.0 * sigma_max * sigma_max * k as f32 / PENUMBRA_TAPS as f32;
-        Vec3::from_array(sigma_mm.to_array().map(|sigma| {
-            (-0.5 * radius_squared / (sigma * sigma).max(1e-12)).exp()
-        }))
+        Vec3::from_array(
+            sigma_mm
+                .to_array()
+                .map(|sigma| (-0.5 * radius_squared / (sigma * sigma).max(1e-12)).exp()),
+        )
     })
 }

@@ -22,13 +22,19 @@ impl Mesh {
         }
     }
 
-    /// An axis-aligned box centred at the origin with the given half extents: six flat faces of
-    /// two triangles each, with their own four vertices (24 in all), so every vertex normal is
-    /// its face's. Its faces are flat: curvature 0 everywhere but the edges.
-    pub fn cuboid(half_extents: Vec3) -> Self {
-        let mut positions = Vec::with_capacity(24);
-        let mut normals = Vec::with_capacity(24);
-        let mut triangles = Vec::with_capacity(12);
+    /// An axis-aligned box centred at the origin with the given half extents: six flat faces,
+    /// each a grid of `subdivisions × subdivisions` quads (two triangles each) with its own
+    /// vertices, so every vertex normal is its face's: `6·(n + 1)²` vertices, `12·n²` triangles.
+    /// Its faces are flat: curvature 0 everywhere but the edges.
+    ///
+    /// # Panics
+    /// If `subdivisions` is 0.
+    pub fn cuboid(half_extents: Vec3, subdivisions: u32) -> Self {
+        assert!(subdivisions >= 1, "a cuboid needs at least 1 subdivision");
+        let n = subdivisions;
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        let mut triangles = Vec::new();
         for axis in 0..3 {
             for sign in [-1.0f32, 1.0] {
                 let mut normal = Vec3::ZERO;
@@ -39,12 +45,22 @@ impl Mesh {
                 let mut v = Vec3::ZERO;
                 v[(axis + 2) % 3] = sign;
                 let base = positions.len() as u32;
-                for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                    positions.push((normal + a * u + b * v) * half_extents);
-                    normals.push(normal);
+                for j in 0..=n {
+                    for i in 0..=n {
+                        let a = 2.0 * i as f32 / n as f32 - 1.0;
+                        let b = 2.0 * j as f32 / n as f32 - 1.0;
+                        positions.push((normal + a * u + b * v) * half_extents);
+                        normals.push(normal);
+                    }
                 }
-                triangles.push([base, base + 1, base + 2]);
-                triangles.push([base, base + 2, base + 3]);
+                for j in 0..n {
+                    for i in 0..n {
+                        let corner = base + j * (n + 1) + i;
+                        let above = corner + n + 1;
+                        triangles.push([corner, corner + 1, above + 1]);
+                        triangles.push([corner, above + 1, above]);
+                    }
+                }
             }
         }
         Self {
