@@ -633,8 +633,8 @@ fn glb_export_checks_lengths_and_never_leaves_partial_files() {
 
 #[test]
 fn cuboid_faces_are_flat_outward_and_counter_clockwise() {
-    let half = cdrf_core::glam::Vec3::new(30.0, 20.0, 2.0);
-    let cuboid = cdrf_core::Mesh::cuboid(half, 3);
+    let half = Vec3::new(30.0, 20.0, 2.0);
+    let cuboid = Mesh::cuboid(half, 3);
     assert_eq!(
         (cuboid.positions.len(), cuboid.triangles.len()),
         (6 * 16, 12 * 9)

@@ -1,6 +1,7 @@
-//! The comparison with path-traced references (`cdrf-viewer compare`) on a small case: the
+//! The comparison with path-traced references (`cdrf-viewer compare`) on small cases: the
 //! r = 35 mm wax sphere at 128 × 128 pixels (the 512 × 512 reference box-averaged 4 × 4), where
-//! the measured CDRF must beat both the Gaussian CDRF and Lambert in every region and metric.
+//! the measured CDRF must beat both the Gaussian CDRF and Lambert in every region and metric and
+//! the non-local terms must change nothing; and the torus, where they must cut the error.
 
 use std::process::Command;
 
@@ -8,12 +9,12 @@ use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
 use cdrf_tests::data_dir;
 use cdrf_viewer::compare::{CaseSpec, ModelName, Models, Region, read_manifest, run_case};
 
-fn sphere_case() -> CaseSpec {
+fn case(name: &str) -> CaseSpec {
     let cases = read_manifest(&data_dir().join("compare.toml")).unwrap_or_else(|e| panic!("{e}"));
     cases
         .into_iter()
-        .find(|case| case.name == "sphere_r35")
-        .expect("data/compare.toml has the sphere_r35 case")
+        .find(|case| case.name == name)
+        .unwrap_or_else(|| panic!("data/compare.toml has no case {name}"))
 }
 
 #[test]
@@ -21,7 +22,7 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
     let device = HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|e| panic!("{e}"));
     let models =
         Models::from_fit_folder(&data_dir().join("wax-fit")).unwrap_or_else(|e| panic!("{e}"));
-    let result = run_case(&device, &sphere_case(), &models, Some(128), None)
+    let result = run_case(&device, &case("sphere_r35"), &models, Some(128), None)
         .unwrap_or_else(|e| panic!("{e}"));
     println!(
         "{}",
@@ -56,6 +57,69 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
     // On the lit side, where the reference's noise averages out, the table is within 2 %.
     let lit = result.metrics(Region::Lit, ModelName::Measured).unwrap();
     assert!(lit.relative_rmse < 0.02, "{lit:?}");
+
+    // An isolated sphere is its own osculating sphere: cast shadows and transmission change
+    // nothing (to 0.1 % of the error).
+    for region in [
+        Region::Whole,
+        Region::Lit,
+        Region::Terminator,
+        Region::Shadow,
+    ] {
+        let poster = result.metrics(region, ModelName::Measured).unwrap();
+        for model in [
+            ModelName::MeasuredShadows,
+            ModelName::MeasuredTransmission,
+            ModelName::MeasuredShadowsTransmission,
+        ] {
+            let other = result.metrics(region, model).unwrap();
+            assert!(
+                (other.relative_rmse - poster.relative_rmse).abs() < 1e-3,
+                "{region}: {model} {other:?} vs the poster's {poster:?}"
+            );
+        }
+    }
+}
+
+/// The torus has a cast shadow and a shadow side lit through the ring: there the non-local terms
+/// must beat every local model by far (at 512 px: whole object 73 % → 7.9 %).
+#[test]
+fn shadows_and_transmission_cut_the_torus_error() {
+    let device = HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|e| panic!("{e}"));
+    let models =
+        Models::from_fit_folder(&data_dir().join("wax-fit")).unwrap_or_else(|e| panic!("{e}"));
+    let result = run_case(&device, &case("torus"), &models, Some(128), None)
+        .unwrap_or_else(|e| panic!("{e}"));
+    println!(
+        "{}",
+        cdrf_viewer::compare::markdown(std::slice::from_ref(&result))
+    );
+    let rmse = |region, model| result.metrics(region, model).unwrap().relative_rmse;
+    let both = ModelName::MeasuredShadowsTransmission;
+    for local in [ModelName::Measured, ModelName::Gaussian, ModelName::Lambert] {
+        assert!(
+            rmse(Region::Whole, both) < 0.3 * rmse(Region::Whole, local),
+            "whole object: {} vs {local} {}",
+            rmse(Region::Whole, both),
+            rmse(Region::Whole, local)
+        );
+        assert!(
+            rmse(Region::CastShadow, both) < 0.1 * rmse(Region::CastShadow, local),
+            "cast shadow"
+        );
+    }
+    // Transmission lights the shadow side through the ring: better than shadows alone there.
+    assert!(
+        rmse(Region::Shadow, both) < rmse(Region::Shadow, ModelName::MeasuredShadows),
+        "shadow side: {} vs {}",
+        rmse(Region::Shadow, both),
+        rmse(Region::Shadow, ModelName::MeasuredShadows)
+    );
+    // And nothing changes on the lit side away from the shadow (to 0.5 % of the error).
+    assert!(
+        (rmse(Region::Lit, both) - rmse(Region::Lit, ModelName::Measured)).abs() < 5e-3,
+        "lit side"
+    );
 }
 
 #[test]
@@ -105,7 +169,9 @@ fn compare_command_writes_json_markdown_and_a_figure() {
             .is_some()
     );
     let figure = image::open(dir.path().join("out/sphere_r35.png")).unwrap();
-    assert_eq!((figure.width(), figure.height()), (4 * 128, 2 * 128));
+    // Reference and one column per model.
+    let columns = 1 + ModelName::ALL.len() as u32;
+    assert_eq!((figure.width(), figure.height()), (columns * 128, 2 * 128));
     assert!(dir.path().join("out/compare.md").is_file());
 
     let output = Command::new(env!("CARGO_BIN_EXE_cdrf-viewer"))
