@@ -422,7 +422,7 @@ fn transmission_profile(thickness_mm: f32) -> vec3<f32> {
 // sphere (or tangent plane) of the point.
 fn non_local_terms(
     index: u32,
-    pixel: vec2<f32>,
+    seed: vec2<f32>,
     world_position: vec3<f32>,
     normal: vec3<f32>,
     curvature_per_mm: f32,
@@ -452,15 +452,16 @@ fn non_local_terms(
     }
     let tangent = normalize(cross(helper, n));
     let bitangent = cross(n, tangent);
-    // The spiral turns by a different angle at every pixel (interleaved gradient noise,
-    // Jimenez 2014): a few taps leave fine noise instead of contour bands in the penumbra.
-    let spin = 6.28318530718 * fract(52.9829189 * fract(dot(pixel, vec2<f32>(0.06711056, 0.00583715))));
+    // The spiral turns by a different angle for every `seed` (the pixel, or the vertex index;
+    // interleaved gradient noise, Jimenez 2014): a few taps leave fine noise instead of contour
+    // bands in the penumbra.
+    let spin = 6.28318530718 * fract(52.9829189 * fract(dot(seed, vec2<f32>(0.06711056, 0.00583715))));
     var unoccluded = vec3<f32>(0.0);
     var weights = vec3<f32>(0.0);
-    // Occluded columns: their weight, and their mean distance through the occluder.
+    // Occluded columns (counted − lit of them): their weight, and their summed distance through
+    // the occluder.
     var through_weight = vec3<f32>(0.0);
     var through_mm = 0.0;
-    var through_count = 0.0;
     var thin = vec3<f32>(0.0);
     var counted = 0u;
     var lit = 0u;
@@ -526,7 +527,6 @@ fn non_local_terms(
         if occluder < expected - tolerance {
             through_weight += weight;
             through_mm += surface.z - occluder;
-            through_count += 1.0;
         } else {
             unoccluded += weight;
             lit += 1u;
@@ -546,10 +546,10 @@ fn non_local_terms(
     // (the CDRF) dominates, so the thin-part term fades in from θ = 90° to 110°.
     terms.transmission = thin * smoothstep(0.0, 0.342, n.z);
     if (NON_LOCAL & NON_LOCAL_SHADOWS) != 0u && (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u
-        && through_count > 0.0 {
+        && counted > lit {
         // Light through the occluders, at their mean thickness (one T(d) per light).
         terms.transmission += through_weight / weights
-            * transmission_profile(through_mm / through_count);
+            * transmission_profile(through_mm / f32(counted - lit));
     }
     return terms;
 }
