@@ -3,6 +3,8 @@
 //! Errors are measured on 8 × 8 pixel blocks (see `cdrf_fit::evaluate`): the data has ~7 %
 //! relative noise per pixel on the lit side, so single pixels would measure the noise.
 
+mod common;
+
 use std::f32::consts::FRAC_PI_2;
 use std::path::PathBuf;
 use std::sync::OnceLock;
@@ -11,11 +13,11 @@ use cdrf_core::Cdrf;
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::lut::Filter;
 use cdrf_fit::curves::{CurveSettings, SphereSamples, ViewModel};
-use cdrf_fit::dataset::{Dataset, Projection};
+use cdrf_fit::dataset::Dataset;
 use cdrf_fit::evaluate::sphere_error;
 use cdrf_fit::fit::{Fit, Timings, fit_samples};
-use cdrf_fit::sphere::{Circle, Sample, SphereView};
 use cdrf_fit::{FitOptions, fit_dataset};
+use common::synthetic_sphere;
 use glam::{Vec2, Vec3};
 
 fn wax_dir() -> PathBuf {
@@ -239,45 +241,6 @@ fn leaving_one_radius_out_still_reproduces_it() {
     }
 }
 
-/// A sphere of radius `radius_mm` "photographed" like the data set (orthographic, 512², radius
-/// 230 px, lit from the left) from a known CDRF and view correction, at pixel centres.
-fn synthetic_sphere(model: &impl Cdrf, g: impl Fn(f32) -> Vec3, radius_mm: f32) -> SphereSamples {
-    let view = SphereView::new(
-        Circle {
-            center_px: Vec2::splat(256.0),
-            radius_px: 230.0,
-        },
-        Projection::Orthographic,
-        512,
-        512,
-    );
-    let to_light = Vec3::new(-1.0, 0.0, 0.0);
-    let mut samples = Vec::new();
-    for row in 0..512 {
-        for column in 0..512 {
-            let Some(point) = view.point(column, row) else {
-                continue;
-            };
-            if point.inside_by_px < 2.0 {
-                continue;
-            }
-            let theta = point.normal.dot(to_light).clamp(-1.0, 1.0).acos();
-            let phi = point.normal.dot(point.to_camera).clamp(-1.0, 1.0).acos();
-            samples.push(Sample {
-                theta_rad: theta,
-                phi_rad: phi,
-                radiance: Vec3::from_array(model.reflectance(1.0 / radius_mm, theta)) * g(phi),
-                pixel: (row * 512 + column) as u32,
-            });
-        }
-    }
-    SphereSamples {
-        curvature_per_mm: 1.0 / radius_mm,
-        image_width: 512,
-        samples,
-    }
-}
-
 #[test]
 fn synthetic_truth_is_fitted_back_within_half_a_percent() {
     let truth = GaussianCdrf::with_scale([9.0, 6.0, 4.0], [0.9, 0.85, 0.8]).unwrap();
@@ -285,7 +248,7 @@ fn synthetic_truth_is_fitted_back_within_half_a_percent() {
     let radii = [15.0_f32, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0];
     let samples: Vec<SphereSamples> = radii
         .iter()
-        .map(|&r| synthetic_sphere(&truth, g, r))
+        .map(|&r| synthetic_sphere(&truth, g, r, |_| true))
         .collect();
     let reports = Vec::new();
     let options = FitOptions {
@@ -329,7 +292,7 @@ fn synthetic_truth_is_fitted_back_within_half_a_percent() {
 #[test]
 fn one_sphere_gives_a_curvature_independent_table() {
     let truth = GaussianCdrf::new([6.0, 6.0, 6.0]).unwrap();
-    let sphere = synthetic_sphere(&truth, |_| Vec3::ONE, 25.0);
+    let sphere = synthetic_sphere(&truth, |_| Vec3::ONE, 25.0, |_| true);
     let options = FitOptions {
         curves: CurveSettings {
             view_model: ViewModel::Phi,

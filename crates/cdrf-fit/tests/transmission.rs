@@ -3,17 +3,18 @@
 //! without a usable shadow side gives a typed error — and a table without translucency, not a
 //! failed fit.
 
+mod common;
+
 use cdrf_core::Cdrf;
 use cdrf_core::translucency::TransmissionProfile;
 use cdrf_fit::FitOptions;
 use cdrf_fit::curves::{CurveSettings, SphereSamples, ViewModel};
-use cdrf_fit::dataset::Projection;
 use cdrf_fit::fit::{Timings, fit_samples};
-use cdrf_fit::sphere::{Circle, Sample, SphereView};
 use cdrf_fit::transmission::{
     DEFAULT_MIN_THETA_DEG, SphereCurve, TransmissionError, TransmissionSettings, fit_transmission,
 };
-use glam::{Vec2, Vec3};
+use common::synthetic_sphere;
+use glam::Vec3;
 
 const AMPLITUDE: [f32; 3] = [0.25, 0.18, 0.12];
 const LENGTH_MM: [f32; 3] = [12.0, 8.0, 5.5];
@@ -302,53 +303,6 @@ impl Cdrf for TransmittingSphere {
     }
 }
 
-/// A sphere of radius `radius_mm` "photographed" like the bundled data set (orthographic,
-/// 512², radius 230 px, lit from the left, 2 px edge margin) from `model`, keeping the pixels
-/// with `keep(θ)`.
-fn synthetic_sphere(
-    model: &impl Cdrf,
-    radius_mm: f32,
-    keep: impl Fn(f32) -> bool,
-) -> SphereSamples {
-    let view = SphereView::new(
-        Circle {
-            center_px: Vec2::splat(256.0),
-            radius_px: 230.0,
-        },
-        Projection::Orthographic,
-        512,
-        512,
-    );
-    let to_light = Vec3::new(-1.0, 0.0, 0.0);
-    let mut samples = Vec::new();
-    for row in 0..512 {
-        for column in 0..512 {
-            let Some(point) = view.point(column, row) else {
-                continue;
-            };
-            if point.inside_by_px < 2.0 {
-                continue;
-            }
-            let theta = point.normal.dot(to_light).clamp(-1.0, 1.0).acos();
-            if !keep(theta) {
-                continue;
-            }
-            let phi = point.normal.dot(point.to_camera).clamp(-1.0, 1.0).acos();
-            samples.push(Sample {
-                theta_rad: theta,
-                phi_rad: phi,
-                radiance: Vec3::from_array(model.reflectance(1.0 / radius_mm, theta)),
-                pixel: (row * 512 + column) as u32,
-            });
-        }
-    }
-    SphereSamples {
-        curvature_per_mm: 1.0 / radius_mm,
-        image_width: 512,
-        samples,
-    }
-}
-
 fn phi_options() -> FitOptions {
     FitOptions {
         curves: CurveSettings {
@@ -363,7 +317,7 @@ fn phi_options() -> FitOptions {
 fn the_whole_fit_recovers_the_profile_and_puts_it_in_the_table() {
     let samples: Vec<SphereSamples> = [15.0, 25.0, 35.0, 50.0]
         .iter()
-        .map(|&r| synthetic_sphere(&TransmittingSphere, r, |_| true))
+        .map(|&r| synthetic_sphere(&TransmittingSphere, |_| Vec3::ONE, r, |_| true))
         .collect();
     let fit = fit_samples(samples, Vec::new(), &phi_options(), Timings::default()).unwrap();
     let transmission = fit.transmission.as_ref().expect("transmission fitted");
@@ -384,7 +338,7 @@ fn without_a_shadow_side_the_fit_goes_on_without_translucency() {
     let lit = |theta: f32| theta < 85.0_f32.to_radians();
     let samples: Vec<SphereSamples> = [20.0, 40.0]
         .iter()
-        .map(|&r| synthetic_sphere(&TransmittingSphere, r, lit))
+        .map(|&r| synthetic_sphere(&TransmittingSphere, |_| Vec3::ONE, r, lit))
         .collect();
     let fit = fit_samples(samples, Vec::new(), &phi_options(), Timings::default()).unwrap();
     assert!(
