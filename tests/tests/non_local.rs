@@ -7,7 +7,6 @@
 
 use std::f32::consts::PI;
 use std::path::PathBuf;
-use std::sync::OnceLock;
 
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::RgbaImage;
@@ -17,10 +16,8 @@ use cdrf_core::scene::{
     SceneAssets, ShadingSpec,
 };
 use cdrf_core::{CdrfLut, CurvatureOptions, Mesh, Translucency, mean_curvature_per_mm, read_lut};
-use cdrf_render::Options;
-use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
-use cdrf_tests::data_dir;
 use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
+use cdrf_tests::{data_dir, render_predictable};
 
 /// As in `render.rs`: lavapipe renders are deterministic; any real change of the terms moves
 /// the mean FLIP above this.
@@ -30,13 +27,6 @@ const TOLERANCE: Tolerance = Tolerance {
 };
 
 const SIZE: u32 = 192;
-
-fn device() -> &'static HeadlessDevice {
-    static DEVICE: OnceLock<HeadlessDevice> = OnceLock::new();
-    DEVICE.get_or_init(|| {
-        HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|error| panic!("{error}"))
-    })
-}
 
 /// The bundled measured table, which must carry its translucency terms (format version 2).
 fn wax() -> (CdrfLut, Translucency) {
@@ -80,16 +70,6 @@ fn scene(half_height_mm: f32, to_light: Vec3, non_local: NonLocal) -> Scene {
         },
         non_local,
     }
-}
-
-fn render(scene: &Scene, assets: &SceneAssets) -> RgbaImage {
-    let settings = RenderSettings {
-        options: Options::PREDICTABLE,
-        ..RenderSettings::default()
-    };
-    render_scene(device(), scene, assets, &settings)
-        .unwrap_or_else(|error| panic!("{error}"))
-        .image
 }
 
 fn srgb8(image: &RgbaImage, exposure: f32) -> Srgb8Image {
@@ -169,12 +149,12 @@ fn a_shape_shadowing_another() {
     };
     let half_height = 45.0;
     let light = Vec3::NEG_X;
-    let off = render(&scene(half_height, light, NonLocal::OFF), &assets);
+    let off = render_predictable(&scene(half_height, light, NonLocal::OFF), &assets);
     let on = NonLocal {
         shadows: true,
         transmission: true,
     };
-    let shadowed = render(&scene(half_height, light, on), &assets);
+    let shadowed = render_predictable(&scene(half_height, light, on), &assets);
     assert_golden(
         "non_local_shadowing_spheres",
         &srgb8(&shadowed, 4.0),
@@ -250,8 +230,8 @@ fn a_thin_slab_glows_from_behind() {
         shadows: false,
         transmission: true,
     };
-    let dark = render(&scene(half_height, from_behind, NonLocal::OFF), &assets);
-    let glowing = render(&scene(half_height, from_behind, transmission), &assets);
+    let dark = render_predictable(&scene(half_height, from_behind, NonLocal::OFF), &assets);
+    let glowing = render_predictable(&scene(half_height, from_behind, transmission), &assets);
     assert_golden(
         "non_local_slab_from_behind",
         // The glow is faint (T(4 mm) ≈ 0.02): shown 40× brighter.
@@ -284,7 +264,7 @@ fn a_thin_slab_glows_from_behind() {
         ..assets
     };
     let thicker = mean_red(
-        &render(&scene(half_height, from_behind, transmission), &assets),
+        &render_predictable(&scene(half_height, from_behind, transmission), &assets),
         centre,
         4,
     );

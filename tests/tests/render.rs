@@ -5,15 +5,13 @@
 //! References live in `tests/golden/`; `UPDATE_SNAPSHOTS=1 cargo test -p cdrf-tests --test
 //! render` writes missing or changed ones. A missing reference fails.
 
-use std::sync::OnceLock;
-
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::scene::{Material, NonLocal, Scene, SceneAssets};
-use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
+use cdrf_render::headless::{HeadlessDevice, RenderSettings, render_scene};
 use cdrf_render::{Options, wgpu};
-use cdrf_tests::data_dir;
 use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
+use cdrf_tests::{data_dir, render_predictable, software_device};
 
 /// Renders of the same scene on lavapipe are byte-identical from run to run (TOOLCHAIN.md);
 /// the tolerance only absorbs rounding differences between Mesa/LLVM versions. Set on
@@ -26,16 +24,6 @@ const TOLERANCE: Tolerance = Tolerance {
 
 /// Golden images are 256 × 256 to keep the suite quick on a software rasteriser.
 const GOLDEN_SIZE: u32 = 256;
-
-fn device() -> &'static HeadlessDevice {
-    static DEVICE: OnceLock<HeadlessDevice> = OnceLock::new();
-    DEVICE.get_or_init(|| {
-        let device = HeadlessDevice::new(AdapterPreference::Software)
-            .unwrap_or_else(|error| panic!("{error}"));
-        println!("adapter: {}", device.adapter_description());
-        device
-    })
-}
 
 fn load_scene(name: &str) -> Scene {
     let path = data_dir().join("scenes").join(name);
@@ -68,16 +56,6 @@ fn bundled_gaussian() -> Material {
         model,
         view_correction,
     }
-}
-
-fn render(scene: &Scene, assets: &SceneAssets) -> RgbaImage {
-    let settings = RenderSettings {
-        options: Options::PREDICTABLE,
-        ..RenderSettings::default()
-    };
-    render_scene(device(), scene, assets, &settings)
-        .unwrap_or_else(|error| panic!("{error}"))
-        .image
 }
 
 fn srgb8(image: &RgbaImage) -> Srgb8Image {
@@ -113,7 +91,7 @@ fn models(scene_file: &str, stem: &str) {
     ];
     for (model, material) in materials {
         assets.material = material;
-        let image = render(&scene, &assets);
+        let image = render_predictable(&scene, &assets);
         assert_golden(&format!("{stem}_{model}"), &srgb8(&image), TOLERANCE);
     }
 }
@@ -150,8 +128,8 @@ fn scaled_mesh_matches_mm_per_unit() {
     {
         *half_height /= 35.0;
     }
-    let a = render(&by_transform, &assets(&by_transform));
-    let b = render(&by_units, &assets(&by_units));
+    let a = render_predictable(&by_transform, &assets(&by_transform));
+    let b = render_predictable(&by_units, &assets(&by_units));
     let worst = a
         .pixels
         .iter()
@@ -170,7 +148,7 @@ fn scaled_mesh_matches_mm_per_unit() {
     {
         *half_height *= 2.0;
     }
-    let c = render(&doubled, &assets(&doubled));
+    let c = render_predictable(&doubled, &assets(&doubled));
     let shadow_side = |image: &RgbaImage| {
         // Mean red radiance over the right (shadow) half of the disk.
         let mut sum = 0.0;
@@ -199,9 +177,9 @@ fn scaled_mesh_matches_mm_per_unit() {
 fn msaa_sphere() {
     let mut scene = golden_scene("sphere_r35.toml", 4);
     let assets = assets(&scene);
-    let msaa = render(&scene, &assets);
+    let msaa = render_predictable(&scene, &assets);
     scene.camera.msaa_samples = 1;
-    let single = render(&scene, &assets);
+    let single = render_predictable(&scene, &assets);
     let partial = msaa
         .pixels
         .iter()
@@ -254,7 +232,7 @@ fn msaa_sphere() {
 fn non_srgb_target() {
     let scene = golden_scene("bunny.toml", 1);
     let assets = assets(&scene);
-    let float = render(&scene, &assets);
+    let float = render_predictable(&scene, &assets);
     let unorm = render_unorm(&scene, &assets);
     let expected = float.to_srgb8();
     let worst = expected
@@ -271,7 +249,7 @@ fn non_srgb_target() {
 /// Renders into a host-owned `Rgba8Unorm` texture through the public pass API.
 fn render_unorm(scene: &Scene, assets: &SceneAssets) -> Srgb8Image {
     use cdrf_render::{Draw, FrameDesc, MaterialDesc, MeshDesc, Renderer, TargetDesc, View};
-    let HeadlessDevice { device, queue, .. } = device();
+    let HeadlessDevice { device, queue, .. } = software_device();
     let (width, height) = (scene.camera.width, scene.camera.height);
     let format = wgpu::TextureFormat::Rgba8Unorm;
     let depth_format = wgpu::TextureFormat::Depth32Float;
@@ -323,7 +301,7 @@ fn record_and_read_back(
     width: u32,
     height: u32,
 ) -> Srgb8Image {
-    let HeadlessDevice { device, queue, .. } = device();
+    let HeadlessDevice { device, queue, .. } = software_device();
     let texture = |format, usage| {
         device.create_texture(&wgpu::TextureDescriptor {
             label: Some("test target"),
@@ -482,7 +460,7 @@ fn lambert_control_matches_path_traced() {
     scene.camera.msaa_samples = 4;
     let mut assets = assets(&scene);
     assets.material = Material::Lambert { albedo: [0.8; 3] };
-    let image = render(&scene, &assets);
+    let image = render_predictable(&scene, &assets);
     let reference = read_reference("lambert-control/sphere_r35.exr");
     let (lit_error, blocks) = block_error(&image, &reference, 1, |x, _| x < -20.0);
     println!(
@@ -532,9 +510,9 @@ fn measured_sphere_matches_path_traced() {
         "sphere_r35.toml uses the measured model"
     );
     let gaussian = bundled_gaussian();
-    let measured_image = render(&scene, &assets);
+    let measured_image = render_predictable(&scene, &assets);
     assets.material = gaussian;
-    let gaussian_image = render(&scene, &assets);
+    let gaussian_image = render_predictable(&scene, &assets);
     // Lit region: the light comes from −x (image left), so lit pixels have x < 0.
     let radius_px = 230.0;
     let lit = |x: f32, _y: f32| x < -0.05 * radius_px;
@@ -590,7 +568,7 @@ fn measured_shader_matches_the_cpu_table() {
             },
             ..RenderSettings::default()
         };
-        let image = render_scene(device(), &scene, &assets, &settings)
+        let image = render_scene(software_device(), &scene, &assets, &settings)
             .unwrap_or_else(|error| panic!("{error}"))
             .image;
         compare_with_cpu_table(&image, lut, &format!("{lut_filtering:?} filtering"));
@@ -668,7 +646,7 @@ fn compare_gaussian_evaluations(scene: &Scene, assets: &SceneAssets, radius_mm: 
             ..RenderSettings::default()
         };
         rendered.push(
-            render_scene(device(), scene, assets, &settings)
+            render_scene(software_device(), scene, assets, &settings)
                 .unwrap()
                 .image,
         );
@@ -707,7 +685,7 @@ struct LambertSphere {
 
 impl LambertSphere {
     fn new(format: wgpu::TextureFormat, subdivisions: u32) -> Self {
-        let HeadlessDevice { device, queue, .. } = device();
+        let HeadlessDevice { device, queue, .. } = software_device();
         let mut renderer = cdrf_render::Renderer::new(
             device,
             &cdrf_render::TargetDesc::new(format),
@@ -745,7 +723,7 @@ impl LambertSphere {
         let curvature = vec![1.0 / 20.0; sphere.positions.len()];
         renderer
             .create_mesh(
-                &device().device,
+                &software_device().device,
                 &cdrf_render::MeshDesc {
                     mesh: &sphere,
                     curvature_per_mm: &curvature,
@@ -761,7 +739,7 @@ impl LambertSphere {
 fn render_before_prepare_and_after_errors_draws_nothing() {
     use cdrf_core::scene::DirectionalLight;
     use cdrf_render::{Draw, FrameDesc, PrepareError, Renderer, TargetDesc};
-    let HeadlessDevice { device, queue, .. } = device();
+    let HeadlessDevice { device, queue, .. } = software_device();
     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
     let LambertSphere {
         mut renderer,
@@ -885,9 +863,14 @@ fn bad_scene_files_are_reported() {
 fn render_scene_file(path: &std::path::Path) -> Result<RgbaImage, String> {
     let scene = Scene::load(path).map_err(|e| e.to_string())?;
     let assets = scene.load_assets().map_err(|e| e.to_string())?;
-    render_scene(device(), &scene, &assets, &RenderSettings::default())
-        .map(|r| r.image)
-        .map_err(|e| e.to_string())
+    render_scene(
+        software_device(),
+        &scene,
+        &assets,
+        &RenderSettings::default(),
+    )
+    .map(|r| r.image)
+    .map_err(|e| e.to_string())
 }
 
 /// A perspective camera: the sphere at the target lands centred, with the size the field of
@@ -899,7 +882,7 @@ fn perspective_camera_frames_the_sphere() {
     scene.camera.projection = cdrf_core::scene::Projection::Perspective {
         vertical_fov_deg: 20.0,
     };
-    let image = render(&scene, &assets(&scene));
+    let image = render_predictable(&scene, &assets(&scene));
     let (mut sum, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
     for (index, pixel) in image.pixels.iter().enumerate() {
         let a = f64::from(pixel[3]);
@@ -929,7 +912,7 @@ fn perspective_camera_frames_the_sphere() {
 #[test]
 fn prepare_rejects_unusable_input() {
     use cdrf_render::{Draw, FrameDesc, PrepareError, TargetDesc, ToCamera, View};
-    let HeadlessDevice { device, queue, .. } = device();
+    let HeadlessDevice { device, queue, .. } = software_device();
     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
     let LambertSphere {
         mut renderer,
