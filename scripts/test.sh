@@ -43,6 +43,14 @@ if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "${XDG_RUNTIME_DIR}" ]; then
   export XDG_RUNTIME_DIR
 fi
 
+# A clean build of the tests fills about 4.5 GB of target/. When the disk runs out mid-link the
+# linker dies with "Bus error", which says nothing about the cause; say it up front.
+free_kb="$(df -Pk . | awk 'NR == 2 { print $4 }')"
+if [ -n "$free_kb" ] && [ "$free_kb" -lt $((6 * 1024 * 1024)) ]; then
+  printf 'warning: only %s MB free on the disk holding %s; a clean test build needs about 4.5 GB\n' \
+    "$((free_kb / 1024))" "$PWD" >&2
+fi
+
 section "cargo fmt --check"
 cargo fmt --all --check
 
