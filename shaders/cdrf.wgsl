@@ -22,8 +22,9 @@
 //     know (a cast shadow). Visibility V is the Gaussian-weighted share of unoccluded columns,
 //     σ = the material's scattering length per channel, so the shadow edge is soft;
 //   - transmission: light of occluded columns arrives through d mm of the occluder (light-space
-//     depth difference) as T(d); where the point's own column is thinner than the sphere
-//     predicts (a fin, a slab lit from behind) T(d) − T(d_sphere) is added.
+//     depth difference) as T(d, μ), μ the cosine at which it entered the occluder (from the
+//     shadow map's depth slope); where the point's own column is thinner than the sphere
+//     predicts (a fin, a slab lit from behind) T(d, μ) − T(d_sphere, μ_sphere) is added.
 // Per light: f → V·f (shadows) + T_occluded + T_thin (transmission), all times g(θ, φ). The
 // terms are evaluated per vertex and interpolated (they vary over σ); Lambert's, per pixel.
 
@@ -91,7 +92,8 @@ struct Material {
     curvature_range: vec4<f32>,
     // Penumbra width σ per channel, mm (0: opaque, a hard shadow edge).
     scattering_length_mm: vec4<f32>,
-    // T(d) = amplitude · exp(−d / length), π·L/E and mm per channel (amplitude 0: none).
+    // T(d, μ) = amplitude · μ^p · exp(−d / length), π·L/E and mm per channel (amplitude 0:
+    // none); p (the entry cosine power) in amplitude.w.
     transmission_amplitude: vec4<f32>,
     transmission_length_mm: vec4<f32>,
     // Gaussian weight per channel of penumbra tap k (radius 2σ_max·√(k / PENUMBRA_TAPS)).
@@ -413,9 +415,37 @@ struct NonLocalTerms {
     transmission: vec3<f32>,
 }
 
-fn transmission_profile(thickness_mm: f32) -> vec3<f32> {
-    return material.transmission_amplitude.xyz
+// T(d, μ): light through `thickness_mm` of material that entered it at the cosine
+// `entry_cosine` to the surface.
+fn transmission_profile(thickness_mm: f32, entry_cosine: f32) -> vec3<f32> {
+    var entry = 1.0;
+    if material.transmission_amplitude.w > 0.0 {
+        entry = pow(clamp(entry_cosine, 1e-6, 1.0), material.transmission_amplitude.w);
+    }
+    return material.transmission_amplitude.xyz * entry
         * exp(-max(thickness_mm, 0.0) / material.transmission_length_mm.xyz);
+}
+
+// Cosine between the light and the first surface it meets in column `texel` of map `index`,
+// from the map's depth slope (the gentler one-sided difference per axis, so a depth jump at a
+// silhouette does not count as slope).
+fn entry_cosine(index: u32, texel: vec2<i32>, texel_mm: f32, depth_range_mm: f32) -> f32 {
+    let last = i32(shadows.params.z) - 1;
+    let here = textureLoad(shadow_maps, texel, i32(index), 0);
+    let left = textureLoad(shadow_maps, clamp(texel - vec2<i32>(1, 0), vec2<i32>(0), vec2<i32>(last)), i32(index), 0);
+    let right = textureLoad(shadow_maps, clamp(texel + vec2<i32>(1, 0), vec2<i32>(0), vec2<i32>(last)), i32(index), 0);
+    let down = textureLoad(shadow_maps, clamp(texel - vec2<i32>(0, 1), vec2<i32>(0), vec2<i32>(last)), i32(index), 0);
+    let up = textureLoad(shadow_maps, clamp(texel + vec2<i32>(0, 1), vec2<i32>(0), vec2<i32>(last)), i32(index), 0);
+    var dx = right - here;
+    if abs(here - left) < abs(dx) {
+        dx = here - left;
+    }
+    var dy = up - here;
+    if abs(here - down) < abs(dy) {
+        dy = here - down;
+    }
+    let slope = vec2<f32>(dx, dy) * depth_range_mm / texel_mm;
+    return inverseSqrt(1.0 + dot(slope, slope));
 }
 
 // See the header: compare the shadow map of light `index` around the point with the osculating
@@ -462,6 +492,7 @@ fn non_local_terms(
     // the occluder.
     var through_weight = vec3<f32>(0.0);
     var through_mm = 0.0;
+    var through_entry_cosine = 0.0;
     var thin = vec3<f32>(0.0);
     var counted = 0u;
     var lit = 0u;
@@ -501,7 +532,8 @@ fn non_local_terms(
         let uv = vec2<f32>(0.5, 0.5) + vec2<f32>(0.5, -0.5) * surface.xy / half_extent_mm;
         let texel = vec2<i32>(floor(uv * resolution));
         var occluder = depth_range_mm;
-        if all(texel >= vec2<i32>(0)) && all(texel < vec2<i32>(i32(resolution))) {
+        let inside = all(texel >= vec2<i32>(0)) && all(texel < vec2<i32>(i32(resolution)));
+        if inside {
             occluder = textureLoad(shadow_maps, texel, i32(index), 0) * depth_range_mm;
         }
         // Allowed mismatch: the bias, plus (half a texel across the light, and the shape's sag
@@ -527,14 +559,20 @@ fn non_local_terms(
         if occluder < expected - tolerance {
             through_weight += weight;
             through_mm += surface.z - occluder;
+            if inside {
+                through_entry_cosine += entry_cosine(index, texel, texel_mm, depth_range_mm);
+            }
         } else {
             unoccluded += weight;
             lit += 1u;
             if k == 0u && (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u {
                 // Thinner than the local shape by more than the tolerance.
+                // Both at the entry cosine the map shows: on the sphere itself the difference
+                // vanishes whatever the error of the slope estimate.
+                let entry = entry_cosine(index, texel, texel_mm, depth_range_mm);
                 thin = max(
-                    transmission_profile(p.z - occluder)
-                        - transmission_profile(p.z - expected - tolerance),
+                    transmission_profile(p.z - occluder, entry)
+                        - transmission_profile(p.z - expected - tolerance, entry),
                     vec3<f32>(0.0),
                 );
             }
@@ -547,9 +585,11 @@ fn non_local_terms(
     terms.transmission = thin * smoothstep(0.0, 0.342, n.z);
     if (NON_LOCAL & NON_LOCAL_SHADOWS) != 0u && (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u
         && counted > lit {
-        // Light through the occluders, at their mean thickness (one T(d) per light).
+        // Light through the occluders, at their mean thickness and entry cosine (one T per
+        // light).
+        let occluded = f32(counted - lit);
         terms.transmission += through_weight / weights
-            * transmission_profile(through_mm / f32(counted - lit));
+            * transmission_profile(through_mm / occluded, through_entry_cosine / occluded);
     }
     return terms;
 }

@@ -208,8 +208,10 @@ fn a_shape_shadowing_another() {
     );
 }
 
-/// A 4 mm wax slab lit from behind: its front glows by T(4 mm) (transmission), and is dark
-/// without it (a flat face turned away from the light has almost nothing in the table).
+/// A 4 mm wax slab lit from behind: its front glows by T(4 mm, 1) (transmission), and is dark
+/// without it (a flat face turned away from the light has almost nothing in the table). Lit
+/// from behind at 60° to its normal, the light crosses 8 mm and enters at the cosine 0.5: the
+/// glow is T(8 mm, 0.5), the entry cosine read from the shadow map's depth slope.
 #[test]
 fn a_thin_slab_glows_from_behind() {
     let (lut, translucency) = wax();
@@ -239,9 +241,10 @@ fn a_thin_slab_glows_from_behind() {
         TOLERANCE,
     );
 
-    // The centre of the face: radiance E/π · T(d) · g(θ = π, φ = 0).
+    // The centre of the face: radiance E/π · T(d, μ) · g(θ = π, φ = 0).
     let centre = pixel_of(0.0, 0.0, half_height);
-    let expected = translucency.transmission.evaluate(thickness_mm).x * view.sample(PI, 0.0).x / PI;
+    let expected =
+        translucency.transmission.evaluate(thickness_mm, 1.0).x * view.sample(PI, 0.0).x / PI;
     let found = mean_red(&glowing, centre, 4);
     println!("slab: {found:.5} with transmission (T(d) says {expected:.5})");
     assert!(
@@ -273,5 +276,42 @@ fn a_thin_slab_glows_from_behind() {
     assert!(
         (ratio - expected_ratio).abs() < 0.03 * expected_ratio,
         "{ratio} vs {expected_ratio}"
+    );
+}
+
+/// The 4 mm slab lit from behind at 60° to its normal: the light crosses 8 mm of wax and enters
+/// the back face at the cosine 0.5, which the shader reads from the shadow map's depth slope.
+#[test]
+fn a_slab_lit_obliquely_from_behind_glows_by_its_entry_cosine() {
+    let (lut, translucency) = wax();
+    let thickness_mm = 4.0;
+    let mesh = Mesh::cuboid(Vec3::new(30.0, 30.0, 0.5 * thickness_mm), 30);
+    let curvature_per_mm = vec![0.0; mesh.positions.len()];
+    let view = lut.view_correction().clone();
+    let assets = SceneAssets {
+        mesh,
+        curvature_per_mm,
+        material: Material::Measured(lut),
+    };
+    let half_height = 40.0;
+    let theta = 120.0_f32.to_radians();
+    let oblique = Vec3::new(theta.sin(), 0.0, theta.cos());
+    let transmission = NonLocal {
+        shadows: false,
+        transmission: true,
+    };
+    let glowing = render_predictable(&scene(half_height, oblique, transmission), &assets);
+    let found = mean_red(&glowing, pixel_of(0.0, 0.0, half_height), 4);
+    let entry_cosine = -theta.cos();
+    let t = translucency.transmission;
+    let expected = t.evaluate(thickness_mm / entry_cosine, entry_cosine).x
+        * view.sample(theta, 0.0).x
+        / PI;
+    // What T of the chord alone (entry cosine 1) would give: twice as bright.
+    let without_entry = t.evaluate(thickness_mm / entry_cosine, 1.0).x * view.sample(theta, 0.0).x / PI;
+    println!("oblique slab: {found:.6} (T(8 mm, 0.5) says {expected:.6}; with μ = 1 {without_entry:.6})");
+    assert!(
+        (found - expected).abs() < 0.05 * expected,
+        "{found} vs {expected}"
     );
 }

@@ -1,6 +1,6 @@
 //! The LUT file: an OpenEXR any image tool can open.
 //!
-//! # Layout (format version 2)
+//! # Layout (format version 3)
 //! A multi-part OpenEXR file, 32-bit float, lossless (ZIP) compression:
 //!
 //! | part (layer name) | size (width × height) | channels | content |
@@ -23,10 +23,12 @@
 //! | `cdrf.radiance` | text | `pi*L/E (white Lambertian = max(cos theta, 0))` |
 //! | `cdrf.provenance.KEY` | text | one per provenance entry (UTF-8) |
 //! | `cdrf.scattering_length_mm` | v3f | version 2, optional: [`Translucency::scattering_length_mm`] (R, G, B) |
-//! | `cdrf.transmission.amplitude`, `cdrf.transmission.length_mm` | v3f | version 2, optional: T(d) = A·exp(−d/ℓ), [`TransmissionProfile`] |
+//! | `cdrf.transmission.amplitude`, `cdrf.transmission.length_mm` | v3f | version 2, optional: A and ℓ of T(d, μ) = A·μ^p·exp(−d/ℓ), [`TransmissionProfile`] |
+//! | `cdrf.transmission.entry_cosine_power` | float | version 3, optional: p |
 //!
-//! The three translucency attributes come together or not at all. Version 1 files (no
-//! translucency) still load: their table has no [`CdrfLut::translucency`].
+//! The translucency attributes come together or not at all. Older files still load: version 2
+//! files have no p and mean T(d) alone (p = 0); version 1 files have no translucency
+//! ([`CdrfLut::translucency`] is `None`).
 //!
 //! The axis and radiance texts are checked when reading, so a file written under another
 //! convention is refused instead of misread.
@@ -45,7 +47,7 @@ use crate::lut::{CdrfLut, CurvatureAxis, LutError, TexelCoverage, ViewCorrection
 use crate::translucency::{Translucency, TransmissionProfile};
 
 /// The version this crate writes and the newest it reads.
-pub const FORMAT_VERSION: i32 = 2;
+pub const FORMAT_VERSION: i32 = 3;
 
 const LUT_LAYER: &str = "cdrf.lut";
 const VIEW_LAYER: &str = "cdrf.view";
@@ -62,6 +64,9 @@ const ATTR_PROVENANCE_PREFIX: &str = "cdrf.provenance.";
 const ATTR_SCATTERING_LENGTH: &str = "cdrf.scattering_length_mm";
 const ATTR_TRANSMISSION_AMPLITUDE: &str = "cdrf.transmission.amplitude";
 const ATTR_TRANSMISSION_LENGTH: &str = "cdrf.transmission.length_mm";
+const ATTR_TRANSMISSION_ENTRY_POWER: &str = "cdrf.transmission.entry_cosine_power";
+/// The first version whose transmission profile has an entry cosine power.
+const ENTRY_POWER_SINCE_VERSION: i32 = 3;
 const CURVATURE_AXIS: &str = "uniform kappa [min, max] mm^-1, rows at the ends";
 const THETA_AXIS: &str = "uniform theta [0, pi] rad, columns at the ends";
 const VIEW_AXES: &str = "phi uniform [0, pi/2] columns x theta uniform [0, pi] rows";
@@ -194,20 +199,20 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
     if text(ATTR_FORMAT)? != FORMAT_NAME {
         return Err(not_ours(format!("`{ATTR_FORMAT}` is not `{FORMAT_NAME}`")));
     }
-    match attributes.get(&Text::from(ATTR_VERSION)) {
+    let version = match attributes.get(&Text::from(ATTR_VERSION)) {
         Some(AttributeValue::I32(version)) if *version > FORMAT_VERSION => {
             return Err(LutFileError::UnsupportedVersion {
                 path: path.to_path_buf(),
                 found: *version,
             });
         }
-        Some(AttributeValue::I32(version)) if *version >= 1 => {}
+        Some(AttributeValue::I32(version)) if *version >= 1 => *version,
         _ => {
             return Err(not_ours(format!(
                 "int attribute `{ATTR_VERSION}` missing or < 1"
             )));
         }
-    }
+    };
     for (name, expected) in [
         (ATTR_CURVATURE_AXIS, CURVATURE_AXIS),
         (ATTR_THETA_AXIS, THETA_AXIS),
@@ -287,22 +292,40 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
         None => Ok(None),
         Some(_) => Err(not_ours(format!("`{name}` is not a float vector (v3f)"))),
     };
+    // Version 2 files have no power: their T(d) does not depend on the entry angle.
+    let entry_cosine_power = if version >= ENTRY_POWER_SINCE_VERSION {
+        match attributes.get(&Text::from(ATTR_TRANSMISSION_ENTRY_POWER)) {
+            Some(AttributeValue::F32(power)) => Some(*power),
+            None => None,
+            Some(_) => {
+                return Err(not_ours(format!(
+                    "`{ATTR_TRANSMISSION_ENTRY_POWER}` is not a float"
+                )));
+            }
+        }
+    } else {
+        Some(0.0)
+    };
     match (
         vector(ATTR_SCATTERING_LENGTH)?,
         vector(ATTR_TRANSMISSION_AMPLITUDE)?,
         vector(ATTR_TRANSMISSION_LENGTH)?,
+        entry_cosine_power,
     ) {
-        (Some(scattering_length_mm), Some(amplitude), Some(length_mm)) => {
-            let translucency = TransmissionProfile::new(amplitude, length_mm)
-                .and_then(|t| Translucency::new(scattering_length_mm, t))
-                .map_err(|error| not_ours(format!("translucency: {error}")))?;
+        (Some(scattering_length_mm), Some(amplitude), Some(length_mm), Some(power)) => {
+            let translucency =
+                TransmissionProfile::with_entry_cosine_power(amplitude, length_mm, power)
+                    .and_then(|t| Translucency::new(scattering_length_mm, t))
+                    .map_err(|error| not_ours(format!("translucency: {error}")))?;
             lut = lut.with_translucency(translucency);
         }
-        (None, None, None) => {}
+        (None, None, None, _) if version < ENTRY_POWER_SINCE_VERSION => {}
+        (None, None, None, None) => {}
         _ => {
             return Err(not_ours(format!(
-                "`{ATTR_SCATTERING_LENGTH}`, `{ATTR_TRANSMISSION_AMPLITUDE}` and \
-                 `{ATTR_TRANSMISSION_LENGTH}` must come together"
+                "`{ATTR_SCATTERING_LENGTH}`, `{ATTR_TRANSMISSION_AMPLITUDE}`, \
+                 `{ATTR_TRANSMISSION_LENGTH}` and `{ATTR_TRANSMISSION_ENTRY_POWER}` must come \
+                 together"
             )));
         }
     }
@@ -383,6 +406,10 @@ fn lut_layer(lut: &CdrfLut) -> Layer<AnyChannels<FlatSamples>> {
         other.insert(
             Text::from(ATTR_TRANSMISSION_LENGTH),
             vector(translucency.transmission.length_mm),
+        );
+        other.insert(
+            Text::from(ATTR_TRANSMISSION_ENTRY_POWER),
+            AttributeValue::F32(translucency.transmission.entry_cosine_power),
         );
     }
     Layer::new(

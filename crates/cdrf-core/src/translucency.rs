@@ -10,10 +10,12 @@
 //!   sphere explains (a cast shadow), the CDRF term is attenuated. The edge is not sharp: light
 //!   diffuses under it, so the test is averaged over a Gaussian footprint whose width is the
 //!   material's [`Translucency::scattering_length_mm`];
-//! - **transmission**: light that crossed `d` mm of material arrives as `E/π · T(d) · g`, with the
-//!   profile `T(d) = A·exp(−d/ℓ)` ([`TransmissionProfile`]); it replaces the CDRF where the point
-//!   is in a cast shadow and adds `T(d) − T(d_local)` where the object is thinner than the
-//!   osculating sphere (ears, fins, slabs lit from behind).
+//! - **transmission**: light that entered the first surface at the cosine μ to it and crossed
+//!   `d` mm of material arrives as `E/π · T(d, μ) · g`, with the profile
+//!   `T(d, μ) = A·μ^p·exp(−d/ℓ)` ([`TransmissionProfile`]; p = 1: the irradiance entering is
+//!   `E·μ`); it replaces the CDRF where the point is in a cast shadow and adds
+//!   `T(d, μ) − T(d_local, μ_local)` where the object is thinner than the osculating sphere
+//!   (ears, fins, slabs lit from behind).
 //!
 //! Both terms are measured from the same sphere photographs as the table (cdrf-fit): the
 //! scattering length is the width of the terminator (Kubo's σ, a length in mm), and T(d) is the
@@ -23,39 +25,71 @@
 use glam::Vec3;
 use thiserror::Error;
 
-/// Light through `thickness_mm` of material: `T(d) = amplitude · exp(−d / length_mm)` per RGB
-/// channel, π·L/E (radiance `L = E/π · T(d) · g(θ, φ)`).
+/// Light through `thickness_mm` of material that entered it at the cosine μ to the surface:
+/// `T(d, μ) = amplitude · μ^entry_cosine_power · exp(−d / length_mm)` per RGB channel, π·L/E
+/// (radiance `L = E/π · T(d, μ) · g(θ, φ)`).
+///
+/// cdrf-fit writes `entry_cosine_power` = 1 (the irradiance entering the first surface is
+/// `E·μ`; on the wax spheres this makes the glow one function of d across radii); tables of LUT
+/// format version 2 carry T(d) alone, power 0.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TransmissionProfile {
-    /// T(0) per channel, π·L/E.
+    /// T at d = 0 and μ = 1 per channel, π·L/E.
     pub amplitude: [f32; 3],
     /// Decay length ℓ per channel, mm.
     pub length_mm: [f32; 3],
+    /// p in μ^p: 1 or 0 (T independent of the entry angle).
+    pub entry_cosine_power: f32,
 }
 
 impl TransmissionProfile {
-    /// A validated profile.
+    /// A validated profile, `T(d, μ) = A·μ·exp(−d/ℓ)` (power 1).
     ///
     /// # Errors
     /// When an amplitude is negative or not finite, or a length is not finite and > 0.
     pub fn new(amplitude: [f32; 3], length_mm: [f32; 3]) -> Result<Self, TranslucencyError> {
+        Self::with_entry_cosine_power(amplitude, length_mm, 1.0)
+    }
+
+    /// A validated profile `T(d, μ) = A·μ^p·exp(−d/ℓ)`.
+    ///
+    /// # Errors
+    /// As [`Self::new`], and when p is not finite and ≥ 0.
+    pub fn with_entry_cosine_power(
+        amplitude: [f32; 3],
+        length_mm: [f32; 3],
+        entry_cosine_power: f32,
+    ) -> Result<Self, TranslucencyError> {
         let profile = Self {
             amplitude,
             length_mm,
+            entry_cosine_power,
         };
         profile.validate()?;
         Ok(profile)
     }
 
-    /// T(d) per channel, π·L/E. Negative thicknesses count as 0.
-    pub fn evaluate(&self, thickness_mm: f32) -> Vec3 {
+    /// T(d, μ) per channel, π·L/E. Negative thicknesses count as 0, μ is clamped to [0, 1].
+    pub fn evaluate(&self, thickness_mm: f32, entry_cosine: f32) -> Vec3 {
         let d = thickness_mm.max(0.0);
+        let entry = if self.entry_cosine_power == 0.0 {
+            1.0
+        } else {
+            entry_cosine.clamp(0.0, 1.0).powf(self.entry_cosine_power)
+        };
         Vec3::from_array(std::array::from_fn(|c| {
-            self.amplitude[c] * (-d / self.length_mm[c]).exp()
+            self.amplitude[c] * entry * (-d / self.length_mm[c]).exp()
         }))
     }
 
     fn validate(&self) -> Result<(), TranslucencyError> {
+        let p = self.entry_cosine_power;
+        if !(p.is_finite() && p >= 0.0) {
+            return Err(TranslucencyError::BadValue {
+                what: "transmission entry cosine power",
+                value: p,
+            });
+        }
         for c in 0..3 {
             let (a, l) = (self.amplitude[c], self.length_mm[c]);
             if !(a.is_finite() && a >= 0.0) {
@@ -124,6 +158,17 @@ pub fn local_chord_mm(curvature_per_mm: f32, cos_theta: f32) -> f32 {
     }
 }
 
+/// The cosine between the light and the surface where the light enters the osculating sphere
+/// (radius 1/κ) on its way to a point at the angle θ: the chord is symmetric, so `|cos θ|` on
+/// the shadow side; 1 on the lit side (the point itself) and for flat or concave points.
+pub fn local_entry_cosine(curvature_per_mm: f32, cos_theta: f32) -> f32 {
+    if cos_theta >= 0.0 || curvature_per_mm <= 0.0 {
+        1.0
+    } else {
+        -cos_theta.max(-1.0)
+    }
+}
+
 /// Why translucency terms are invalid.
 #[derive(Debug, Error, Clone, PartialEq)]
 #[non_exhaustive]
@@ -154,12 +199,29 @@ mod tests {
     #[test]
     fn profile_decays_by_e_per_length() {
         let t = TransmissionProfile::new([0.2, 0.1, 0.05], [10.0, 5.0, 2.0]).unwrap();
-        let at_0 = t.evaluate(0.0);
-        let at_10 = t.evaluate(10.0);
+        let at_0 = t.evaluate(0.0, 1.0);
+        let at_10 = t.evaluate(10.0, 1.0);
         assert!((at_0.x - 0.2).abs() < 1e-6);
         assert!((at_10.x / at_0.x - (-1.0f32).exp()).abs() < 1e-5);
         assert!((at_10.y / at_0.y - (-2.0f32).exp()).abs() < 1e-5);
-        assert_eq!(t.evaluate(-3.0), at_0);
+        assert_eq!(t.evaluate(-3.0, 1.0), at_0);
+    }
+
+    #[test]
+    fn profile_scales_with_the_entry_cosine_to_its_power() {
+        let t = TransmissionProfile::new([0.2, 0.1, 0.05], [10.0, 5.0, 2.0]).unwrap();
+        assert!((t.evaluate(4.0, 0.25).x - 0.25 * t.evaluate(4.0, 1.0).x).abs() < 1e-7);
+        assert_eq!(t.evaluate(4.0, -0.5), Vec3::ZERO);
+        let v2 = TransmissionProfile::with_entry_cosine_power([0.2; 3], [10.0; 3], 0.0).unwrap();
+        assert_eq!(v2.evaluate(4.0, 0.0), v2.evaluate(4.0, 1.0));
+        assert!(TransmissionProfile::with_entry_cosine_power([0.2; 3], [10.0; 3], -1.0).is_err());
+    }
+
+    #[test]
+    fn entry_cosine_of_the_osculating_sphere() {
+        assert_eq!(local_entry_cosine(1.0 / 20.0, -0.3), 0.3);
+        assert_eq!(local_entry_cosine(1.0 / 20.0, 0.3), 1.0);
+        assert_eq!(local_entry_cosine(0.0, -0.3), 1.0);
     }
 
     #[test]

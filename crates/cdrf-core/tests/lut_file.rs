@@ -265,6 +265,22 @@ fn a_version_1_file_still_loads() {
     assert!(row[0].x > 0.5 && row[row.len() - 1].x > 0.0);
 }
 
+/// `fixtures/lut-v2.exr` is the bundled wax fit as format version 2 wrote it (T(d) without the
+/// entry cosine): it must keep loading, with entry cosine power 0 so it renders as it did.
+#[test]
+fn a_version_2_file_still_loads() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/lut-v2.exr");
+    let lut = read_lut(&path).unwrap();
+    let translucency = lut.translucency().expect("version 2 file with translucency");
+    let t = translucency.transmission;
+    assert_eq!(t.entry_cosine_power, 0.0);
+    // The version 2 fit of the wax spheres: A ≈ 0.028, ℓ ≈ 12.1 mm (red), σ ≈ 5.4 mm.
+    assert!((t.amplitude[0] - 0.028).abs() < 1e-3, "{t:?}");
+    assert!((t.length_mm[0] - 12.1).abs() < 0.1, "{t:?}");
+    assert!((translucency.scattering_length_mm[0] - 5.4).abs() < 0.1);
+    assert_eq!(t.evaluate(10.0, 0.1), t.evaluate(10.0, 1.0));
+}
+
 #[test]
 fn translucency_attributes_come_together() {
     use exr::prelude::{AttributeValue, Text};
@@ -286,7 +302,25 @@ fn translucency_attributes_come_together() {
             a.other
                 .insert(Text::from(name), AttributeValue::FloatVec3(value));
         }
+        a.other.insert(
+            Text::from("cdrf.transmission.entry_cosine_power"),
+            AttributeValue::F32(1.0),
+        );
     });
     let error = read_lut(&path).unwrap_err();
     assert!(error.to_string().contains("transmission length"), "{error}");
+
+    // Version 3: A, ℓ and σ without the entry cosine power are incomplete.
+    let (_dir, path) = tampered(|a| {
+        for (name, value) in [
+            ("cdrf.scattering_length_mm", (5.0, 5.0, 5.0)),
+            ("cdrf.transmission.amplitude", (0.1, 0.1, 0.1)),
+            ("cdrf.transmission.length_mm", (10.0, 10.0, 10.0)),
+        ] {
+            a.other
+                .insert(Text::from(name), AttributeValue::FloatVec3(value));
+        }
+    });
+    let error = read_lut(&path).unwrap_err();
+    assert!(error.to_string().contains("must come together"), "{error}");
 }

@@ -5,7 +5,7 @@
 //! [`sphere`] (silhouette, θ and φ per pixel), [`curves`] (f(θ; κ) and the view correction),
 //! [`table`] (the `CdrfLut`), [`gaussian_fit`] (Kubo's Gaussian CDRF, whose σ is also the
 //! scattering length of the table's translucency), [`transmission`] (the light through the
-//! material, `T(d) = A·exp(−d/ℓ)`, from the spheres' shadow sides), [`evaluate`] (errors) and
+//! material, `T(d, μ) = A·μ·exp(−d/ℓ)`, from the spheres' shadow sides), [`evaluate`] (errors) and
 //! [`outputs`] / [`plot`] (the files).
 //!
 //! ```

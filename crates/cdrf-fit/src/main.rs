@@ -157,7 +157,7 @@ fn run(args: Args) -> anyhow::Result<()> {
                     transmission.profile.length_mm,
                 );
                 eprintln!(
-                    "transmission T(d) = A·exp(-d/l): A = [{:.4}, {:.4}, {:.4}], l = [{:.2}, {:.2}, {:.2}] mm (shadow side, theta >= {} deg)",
+                    "transmission T(d, mu) = A·mu·exp(-d/l): A = [{:.4}, {:.4}, {:.4}], l = [{:.2}, {:.2}, {:.2}] mm (shadow side, theta >= {} deg)",
                     a[0], a[1], a[2], l[0], l[1], l[2], transmission.settings.min_theta_deg
                 );
             }

@@ -7,7 +7,7 @@
 //! | `report.json` | per-radius curves, sample counts, residuals, g(φ), errors, the transmission profile and its quality, timings ([`Report`]) |
 //! | `radiance_vs_theta.svg` | radiance against θ per radius, raw (all φ) and φ-corrected: the poster's Fig. 2 |
 //! | `view_correction.svg` | g(φ), and the θ-dependent correction at a few θ |
-//! | `transmission.svg` | the shadow side against the chord d the light crossed, per sphere and channel (log), and the fitted T(d) = A·exp(−d/ℓ) per channel |
+//! | `transmission.svg` | the shadow side divided by the entry cosine μ = \|cos θ\| against the chord d the light crossed, per sphere and channel (log), and the fitted A·exp(−d/ℓ) of T(d, μ) = A·μ·exp(−d/ℓ) per channel |
 //! | `lut.png` | a picture of the table (θ across, κ down): in colour, and log₁₀ of green below |
 //!
 //! Every file is written atomically (temporary file, then rename).
@@ -168,21 +168,23 @@ pub struct TransmissionSummary {
 /// A successful transmission fit in the report.
 #[derive(Clone, Debug, Serialize)]
 pub struct FittedTransmission {
-    /// T(0) per channel, π·L/E.
+    /// A of T(d, μ) = A·μ^p·exp(−d/ℓ) per channel, π·L/E.
     pub amplitude: [f32; 3],
     /// Decay length ℓ per channel, mm.
     pub length_mm: [f32; 3],
+    /// p: 1, the light entering scales with the entry cosine μ.
+    pub entry_cosine_power: f32,
     /// The table's scattering length (Kubo's σ) per channel, mm.
     pub scattering_length_mm: [f32; 3],
     /// Nodes fitted per channel.
     pub points: [usize; 3],
     /// Shortest and longest chord per channel, mm.
     pub chord_range_mm: [[f32; 2]; 3],
-    /// Weighted relative RMS error of T(d) against the nodes per channel, relative to T(d)
-    /// (linear space).
+    /// Weighted relative RMS error of T(d, μ) against the nodes per channel, relative to
+    /// T(d, μ) (linear space).
     pub relative_rms: [f32; 3],
-    /// Per sphere (input order): weighted mean of f / T(d) over its nodes per channel (null:
-    /// no nodes). 1 everywhere when the glow depends on the chord alone.
+    /// Per sphere (input order): weighted mean of f / T(d, μ) over its nodes per channel
+    /// (null: no nodes). 1 everywhere when the glow is one function of (d, μ) across radii.
     pub spheres: Vec<TransmissionSphere>,
 }
 
@@ -193,7 +195,7 @@ pub struct TransmissionSphere {
     pub radius_mm: f32,
     /// Nodes fitted per channel.
     pub points: [usize; 3],
-    /// Weighted mean of f / T(d) per channel.
+    /// Weighted mean of f / T(d, μ) per channel.
     pub mean_ratio: [Option<f32>; 3],
 }
 
@@ -231,6 +233,7 @@ impl FittedTransmission {
         Self {
             amplitude: transmission.profile.amplitude,
             length_mm: transmission.profile.length_mm,
+            entry_cosine_power: transmission.profile.entry_cosine_power,
             scattering_length_mm: fit
                 .lut
                 .translucency()
@@ -578,14 +581,14 @@ const CHANNEL_COLORS: [(&str, [u8; 3]); 3] = [
 ];
 
 /// The shadow side of every sphere against the chord the light crossed (markers coloured by
-/// radius, all three channels), and the fitted T(d) per channel (lines in the channel's
+/// radius, all three channels), and the fitted T(d, 1) per channel (lines in the channel's
 /// colour), log radiance. When the fit failed, the nodes it would have used and the reason.
 fn transmission_plot(fit: &Fit) -> String {
     let (points, title) = match &fit.transmission {
         Ok(transmission) => (
             std::array::from_fn(|c| transmission.channels[c].points.clone()),
             format!(
-                "Shadow side (θ ≥ {}°; R, G, B dots per radius) against the chord d = 2r·|cos θ|; lines: T(d)",
+                "Shadow side (θ ≥ {}°; R, G, B dots per radius) ÷ μ = |cos θ| against the chord d = 2r·|cos θ|; lines: A·exp(−d/ℓ)",
                 transmission.settings.min_theta_deg
             ),
         ),
@@ -601,7 +604,7 @@ fn transmission_plot(fit: &Fit) -> String {
             (
                 shadow_points(&spheres, settings),
                 format!(
-                    "Shadow side (θ ≥ {}°; R, G, B dots per radius) against the chord d; T(d) not fitted: {}",
+                    "Shadow side (θ ≥ {}°; R, G, B dots per radius) ÷ μ = |cos θ| against the chord d; T(d, μ) not fitted: {}",
                     settings.min_theta_deg,
                     match error {
                         TransmissionError::TooFewPoints { .. } => "too few points",
@@ -627,7 +630,7 @@ fn transmission_plot(fit: &Fit) -> String {
     let mut plot = LinePlot::new(
         title,
         "d, chord the light crossed (mm)",
-        "π·L/E (view correction divided out)",
+        "π·L/E ÷ μ (view correction and entry cosine μ = |cos θ| divided out)",
     )
     .with_log_y(true)
     .with_size_px(900, 560);
@@ -635,7 +638,7 @@ fn transmission_plot(fit: &Fit) -> String {
         points
             .iter()
             .filter(|p| p.sphere == k)
-            .map(|p| (p.chord_mm, p.value))
+            .map(|p| (p.chord_mm, p.value_per_entry_cosine() as f32))
             .collect()
     };
     for (k, &radius_mm) in radii.iter().enumerate() {
@@ -664,12 +667,12 @@ fn transmission_plot(fit: &Fit) -> String {
             let curve = (0..=200)
                 .map(|i| {
                     let d = start + (end - start) * i as f32 / 200.0;
-                    (d, profile.evaluate(d)[c])
+                    (d, profile.evaluate(d, 1.0)[c])
                 })
                 .collect();
             plot = plot.with_series(Series::new(
                 format!(
-                    "T(d) {name}: A = {:.3}, ℓ = {:.2} mm",
+                    "T(d, 1) {name}: A = {:.3}, ℓ = {:.2} mm",
                     profile.amplitude[c], profile.length_mm[c]
                 ),
                 color,

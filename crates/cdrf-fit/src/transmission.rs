@@ -1,21 +1,23 @@
-//! Light through the material: the transmission profile `T(d) = A·exp(−d/ℓ)` measured from the
-//! shadow side of the spheres (see [`cdrf_core::translucency`]).
+//! Light through the material: the transmission profile `T(d, μ) = A·μ·exp(−d/ℓ)` measured
+//! from the shadow side of the spheres (see [`cdrf_core::translucency`]).
 //!
 //! # Model
 //! A sphere of radius r lit from the side receives light at a shadow-side point (θ > 90°) that
-//! has crossed the chord `d = 2·r·|cos θ| = −2·cos θ / κ` of material
-//! ([`cdrf_core::translucency::local_chord_mm`]). If the glow there is light transmitted through
-//! the material, the measured curve `f_k(θ)` (π·L/E, view correction divided out) is a function
-//! of d alone, the same for every radius: `f_k(θ) = T(d)`. Near the terminator light diffusing
-//! sideways from the lit surface dominates instead, so only nodes with θ ≥
-//! [`TransmissionSettings::min_theta_deg`] (110° by default) are used.
+//! entered the lit side and crossed the chord `d = 2·r·|cos θ| = −2·cos θ / κ` of material
+//! ([`cdrf_core::translucency::local_chord_mm`]). The chord is symmetric: the light entered at
+//! the cosine `μ = |cos θ|` to the surface, so the irradiance entering is `E·μ`
+//! ([`cdrf_core::translucency::local_entry_cosine`]). If the glow there is light transmitted
+//! through the material, the measured curve `f_k(θ)` (π·L/E, view correction divided out) is
+//! the same function of (d, μ) for every radius: `f_k(θ) = T(d, μ) = μ·A·exp(−d/ℓ)`. Near the
+//! terminator light diffusing sideways from the lit surface dominates instead, so only nodes
+//! with θ ≥ [`TransmissionSettings::min_theta_deg`] (110° by default) are used.
 //!
 //! # Fit
-//! Per RGB channel, over the points (d, f) — each θ node of each sphere with samples
+//! Per RGB channel, over the points (d, f/μ) — each θ node of each sphere with samples
 //! (`node_samples > 0`) and a value of at least [`MODEL_FLOOR`] (10⁻⁴) of that sphere's peak
 //! in that channel (below it the curve fit floors its model and does not resolve the value:
 //! on exact synthetic data such nodes are off by tens of percent):
-//! 1. a start from the weighted least-squares line through `(d, ln f)`: `ln f = ln A − d/ℓ`;
+//! 1. a start from the weighted least-squares line through `(d, ln(f/μ))`: `ln A − d/ℓ`;
 //! 2. the fit proper, in linear space with a constant relative noise: Gauss-Newton on
 //!    `Σ w·(f/T − 1 − ln(f/T))` (the deviance of a Gamma model, log link), whose minimum is
 //!    where the weighted relative residuals `f/T − 1` average 0 and show no trend with d.
@@ -31,15 +33,17 @@
 //! bright, well-sampled nodes nearer 110° pin the fit.
 //!
 //! The quality figures are in linear space and relative to the **model**: the weighted
-//! relative RMS error `√(Σ w·((f − T(d))/T(d))² / Σ w)` — the residual the fit minimises (a
+//! relative RMS error `√(Σ w·((f − T)/T)² / Σ w)` — the residual the fit minimises (a
 //! relative error to the data instead is unbounded where a node came out near zero, and then
 //! measures the path tracer's noise, not the model) — and per sphere the weighted mean ratio
-//! `f / T(d)` of its points: 1 on every sphere when the glow depends on d alone across radii.
+//! `f / T` of its points: 1 on every sphere when the glow is one function of (d, μ) across
+//! radii.
 //!
-//! On the bundled wax spheres the per-sphere ratios fall with the radius (about 1.2 at
-//! 15 mm, 0.35–0.7 at 50 mm): at one chord a large sphere's point lies nearer the terminator,
-//! where the chord enters the lit side at a grazing angle (entry irradiance `E·|cos θ|`), so
-//! the glow is not a function of d alone; T(d) is the best single profile over the radii.
+//! On the bundled wax spheres the entry cosine is what makes it one function: without it (T of
+//! d alone, LUT format version 2) the per-sphere ratios fell with the radius from 1.17 at 15 mm
+//! to 0.66 at 50 mm in red (0.35 in green) — at one chord a large sphere's point lies nearer the
+//! terminator, where the light enters at a grazing angle — and the relative RMS was 0.27–0.33;
+//! with it the red ratios stay within 0.90–1.07 and the RMS is 0.18–0.23.
 //!
 //! The scattering length of [`cdrf_core::Translucency`] is not fitted here: it is Kubo's σ
 //! ([`crate::gaussian_fit`]), the width of the terminator in mm.
@@ -48,14 +52,14 @@
 //! use cdrf_fit::transmission::{SphereCurve, TransmissionSettings, fit_transmission};
 //! use glam::Vec3;
 //!
-//! // Two spheres (r = 20 and 40 mm) whose shadow side is exactly T(d) = 0.2·exp(−d / 8 mm).
+//! // Two spheres (r = 20 and 40 mm) whose shadow side is exactly μ·0.2·exp(−d / 8 mm).
 //! let n = 181;
 //! let make = |radius_mm: f32| -> Vec<Vec3> {
 //!     (0..n)
 //!         .map(|a| {
 //!             let theta = std::f32::consts::PI * a as f32 / (n - 1) as f32;
-//!             let d = (-2.0 * radius_mm * theta.cos()).max(0.0);
-//!             Vec3::splat(0.2 * (-d / 8.0).exp())
+//!             let (d, mu) = ((-2.0 * radius_mm * theta.cos()).max(0.0), theta.cos().abs());
+//!             Vec3::splat(mu * 0.2 * (-d / 8.0).exp())
 //!         })
 //!         .collect()
 //! };
@@ -73,7 +77,9 @@
 //! ```
 
 use cdrf_core::lut::theta_rad_at;
-use cdrf_core::translucency::{TranslucencyError, TransmissionProfile, local_chord_mm};
+use cdrf_core::translucency::{
+    TranslucencyError, TransmissionProfile, local_chord_mm, local_entry_cosine,
+};
 use glam::Vec3;
 
 use crate::curves::{CurveFit, MODEL_FLOOR};
@@ -132,6 +138,13 @@ impl<'a> SphereCurve<'a> {
     }
 }
 
+impl ChordPoint {
+    /// f / μ: the value with the entry cosine of the model `T(d, μ) = A·μ·exp(−d/ℓ)` divided out.
+    pub fn value_per_entry_cosine(&self) -> f64 {
+        f64::from(self.value) / f64::from(self.entry_cosine)
+    }
+}
+
 /// One node used by the fit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ChordPoint {
@@ -141,6 +154,8 @@ pub struct ChordPoint {
     pub theta_rad: f32,
     /// The chord the light crossed, mm.
     pub chord_mm: f32,
+    /// Cosine between the light and the surface where it entered the chord: `|cos θ|`.
+    pub entry_cosine: f32,
     /// f(θ), π·L/E.
     pub value: f32,
     /// Weight in the fit (inverse variance of ln f).
@@ -157,14 +172,14 @@ pub struct ChannelFit {
     /// Weighted relative RMS error of the model against the points, relative to the model
     /// (linear space; see the module docs).
     pub relative_rms: f32,
-    /// Per input sphere, the weighted mean of f / T(d) over its points (`None`: no points).
+    /// Per input sphere, the weighted mean of f / T(d, μ) over its points (`None`: no points).
     pub mean_ratio_per_sphere: Vec<Option<f32>>,
 }
 
 /// The fitted transmission profile and its quality per channel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TransmissionFit {
-    /// `T(d) = A·exp(−d/ℓ)` per channel.
+    /// `T(d, μ) = A·μ·exp(−d/ℓ)` per channel.
     pub profile: TransmissionProfile,
     /// The settings used.
     pub settings: TransmissionSettings,
@@ -221,7 +236,7 @@ pub enum TransmissionError {
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
-/// Fits `T(d) = A·exp(−d/ℓ)` per channel to the shadow sides of `spheres` (see the module
+/// Fits `T(d, μ) = A·μ·exp(−d/ℓ)` per channel to the shadow sides of `spheres` (see the module
 /// docs). Spheres with a curvature that is not finite and > 0 contribute no points.
 ///
 /// # Errors
@@ -259,14 +274,16 @@ pub fn fit_transmission(
             return Err(too_few());
         }
         // Start: weighted least squares of ln f = a + b·d.
-        let Some((mut a, mut b)) = weighted_line(points, |p| f64::from(p.value).ln()) else {
+        let Some((mut a, mut b)) = weighted_line(points, |p| p.value_per_entry_cosine().ln())
+        else {
             return Err(too_few());
         };
         // Then the relative-error fit in linear space (Gauss-Newton, step halving).
         let mut deviance = gamma_deviance(points, a, b);
         for _ in 0..MAX_ITERATIONS {
             let model = |p: &ChordPoint| (a + b * f64::from(p.chord_mm)).exp();
-            let Some((da, db)) = weighted_line(points, |p| f64::from(p.value) / model(p) - 1.0)
+            let Some((da, db)) =
+                weighted_line(points, |p| p.value_per_entry_cosine() / model(p) - 1.0)
             else {
                 break;
             };
@@ -387,6 +404,7 @@ fn channel_points(spheres: &[SphereCurve<'_>], c: usize, min_theta_rad: f32) -> 
                 sphere: k,
                 theta_rad: theta,
                 chord_mm,
+                entry_cosine: local_entry_cosine(curvature, theta.cos()),
                 value,
                 weight,
             });
@@ -437,13 +455,13 @@ fn mean_chord(points: &[ChordPoint]) -> f64 {
     sd / sw
 }
 
-/// `Σ w·(f/T − 1 − ln(f/T))` for `T(d) = exp(a + b·d)`: the deviance of a constant relative
+/// `Σ w·(f/T − 1 − ln(f/T))` for `T = μ·exp(a + b·d)`: the deviance of a constant relative
 /// noise (a Gamma model), whose minimum solves `Σ w·(f/T − 1)·(1, d) = 0`.
 fn gamma_deviance(points: &[ChordPoint], a: f64, b: f64) -> f64 {
     points
         .iter()
         .map(|p| {
-            let ratio = f64::from(p.value) / (a + b * f64::from(p.chord_mm)).exp();
+            let ratio = p.value_per_entry_cosine() / (a + b * f64::from(p.chord_mm)).exp();
             f64::from(p.weight) * (ratio - 1.0 - ratio.ln())
         })
         .sum()
@@ -465,7 +483,11 @@ fn channel_quality(
     let mut per_sphere = vec![(0.0_f64, 0.0_f64); sphere_count];
     let mut range = (f32::INFINITY, f32::NEG_INFINITY);
     for p in &points {
-        let (w, f, t) = (f64::from(p.weight), f64::from(p.value), model(p.chord_mm));
+        let (w, f, t) = (
+            f64::from(p.weight),
+            p.value_per_entry_cosine(),
+            model(p.chord_mm),
+        );
         if t > 0.0 {
             sw += w;
             se += w * ((f - t) / t).powi(2);

@@ -673,12 +673,14 @@ fn three_spheres_give_every_output() {
             "length in measured.exr and report.json",
         );
     }
+    assert_eq!(translucency.transmission.entry_cosine_power, 1.0);
+    assert_eq!(section["entry_cosine_power"], 1.0);
     let svg = std::fs::read_to_string(cmd.out().join("transmission.svg")).expect("plot");
     assert!(
-        svg.starts_with("<svg") && svg.contains("T(d) G"),
+        svg.starts_with("<svg") && svg.contains("T(d, 1) G"),
         "transmission.svg"
     );
-    assert!(run.stderr.contains("transmission T(d)"), "{}", run.stderr);
+    assert!(run.stderr.contains("transmission T(d, mu)"), "{}", run.stderr);
 }
 
 #[test]

@@ -688,7 +688,8 @@ impl Renderer {
         let mut albedo_or_scale = Vec4::ONE;
         let mut sigma_mm = Vec4::ZERO;
         let mut curvature_range = Vec4::ZERO;
-        // Non-local terms: penumbra width and T(d) (none: a hard edge and no transmission).
+        // Non-local terms: penumbra width and T(d, μ), its entry cosine power in the amplitude's
+        // w (none: a hard edge and no transmission).
         let mut scattering_length_mm = Vec4::ZERO;
         let mut transmission_amplitude = Vec4::ZERO;
         let mut transmission_length_mm = Vec4::ONE;
@@ -699,7 +700,8 @@ impl Renderer {
                     scattering_length_mm =
                         Vec3::from_array(translucency.scattering_length_mm).extend(0.0);
                     let transmission = translucency.transmission;
-                    transmission_amplitude = Vec3::from_array(transmission.amplitude).extend(0.0);
+                    transmission_amplitude = Vec3::from_array(transmission.amplitude)
+                        .extend(transmission.entry_cosine_power);
                     transmission_length_mm = Vec3::from_array(transmission.length_mm).extend(1.0);
                 }
                 (Model::Measured, Some(lut), lut.view_correction())
