@@ -580,7 +580,7 @@ fn non_local_terms(
     }
     var terms: NonLocalTerms;
     terms.visibility = unoccluded / weights;
-    // T(d) is measured on the spheres at θ ≥ 110°; nearer the terminator sideways diffusion
+    // T(d, μ) is measured on the spheres at θ ≥ 110°; nearer the terminator sideways diffusion
     // (the CDRF) dominates, so the thin-part term fades in from θ = 90° to 110°.
     terms.transmission = thin * smoothstep(0.0, 0.342, n.z);
     if (NON_LOCAL & NON_LOCAL_SHADOWS) != 0u && (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u

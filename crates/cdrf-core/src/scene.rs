@@ -32,7 +32,7 @@
 //! # albedo = [0.8, 0.8, 0.8]              # model = "lambert" (default 1)
 //! # curvature_range_per_mm = [-0.1, 0.1]  # model = "curvature" (default ±max |κ| of the mesh)
 //! shadows = false               # optional: translucent visibility from shadow maps (default false)
-//! transmission = false          # optional: light through thin parts, T(d) (default false)
+//! transmission = false          # optional: light through thin parts, T(d, μ) (default false)
 //! ```
 //!
 //! `shadows` and `transmission` are the non-local terms ([`NonLocal`], see
@@ -85,7 +85,7 @@ pub struct NonLocal {
     /// material's scattering length.
     pub shadows: bool,
     /// Transmission: light through parts thinner than the CDRF assumes, and (with `shadows`)
-    /// through occluders, by the material's T(d).
+    /// through occluders, by the material's T(d, μ).
     pub transmission: bool,
 }
 

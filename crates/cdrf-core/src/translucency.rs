@@ -18,8 +18,9 @@
 //!   (ears, fins, slabs lit from behind).
 //!
 //! Both terms are measured from the same sphere photographs as the table (cdrf-fit): the
-//! scattering length is the width of the terminator (Kubo's σ, a length in mm), and T(d) is the
-//! shadow-side glow of the spheres against the chord each point's light crossed. Values follow
+//! scattering length is the width of the terminator (Kubo's σ, a length in mm), and T(d, μ) is
+//! the shadow-side glow of the spheres against the chord each point's light crossed and the
+//! cosine at which it entered. Values follow
 //! the table's radiance convention, π·L/E.
 
 use glam::Vec3;

@@ -86,7 +86,7 @@
 //!
 //! # Beyond the poster: cast shadows and transmission
 //! [`FrameDesc::non_local`] turns on translucent visibility (cast shadows with a penumbra as wide
-//! as the material's scattering length) and transmission T(d) (see
+//! as the material's scattering length) and transmission T(d, μ) (see
 //! [`cdrf_core::translucency`]). Then `prepare` also records a depth-only shadow pass — an
 //! orthographic map per light, for the first [`MAX_SHADOW_LIGHTS`] lights, fitted to the
 //! bounding sphere of the frame's draws ([`Options::shadow_map_resolution`]) — and returns its
@@ -94,7 +94,7 @@
 //! callbacks return it from their `prepare`). The shading reads the maps per vertex (the terms
 //! vary over the scattering length, millimetres, so meshes with shorter edges resolve them;
 //! Lambert's hard shadows per pixel). A measured table carries its material terms
-//! (LUT file format version 2); the Gaussian CDRF uses its σ as scattering length and has no
+//! (LUT file format version 3, or 2 without the entry cosine); the Gaussian CDRF uses its σ as scattering length and has no
 //! T(d); Lambert gets hard shadows.
 
 mod gpu_data;

@@ -579,7 +579,7 @@ impl ViewerApp {
         ui.checkbox(&mut self.settings.non_local.shadows, "cast shadows")
             .on_hover_text("Translucent visibility from a shadow map: parts hidden from the light by other parts, with a penumbra as wide as the material's scattering length");
         ui.checkbox(&mut self.settings.non_local.transmission, "transmission")
-            .on_hover_text("Light through thin parts (and, with cast shadows, through occluders) by the transmission profile T(d) measured with the table");
+            .on_hover_text("Light through thin parts (and, with cast shadows, through occluders) by the transmission profile T(d, μ) measured with the table");
         ui.separator();
 
         ui.heading("Light");
