@@ -492,7 +492,7 @@ fn non_local_terms(
     // the occluder.
     var through_weight = vec3<f32>(0.0);
     var through_mm = 0.0;
-    var through_entry_cosine = 0.0;
+    var through_entry_cosine = -1.0;
     var thin = vec3<f32>(0.0);
     var counted = 0u;
     var lit = 0u;
@@ -559,8 +559,10 @@ fn non_local_terms(
         if occluder < expected - tolerance {
             through_weight += weight;
             through_mm += surface.z - occluder;
-            if inside {
-                through_entry_cosine += entry_cosine(index, texel, texel_mm, depth_range_mm);
+            // The entry cosine at the first occluded column only: five more loads per column
+            // would cost more than the slope varies over the footprint.
+            if (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u && through_entry_cosine < 0.0 {
+                through_entry_cosine = entry_cosine(index, texel, texel_mm, depth_range_mm);
             }
         } else {
             unoccluded += weight;
@@ -589,7 +591,7 @@ fn non_local_terms(
         // light).
         let occluded = f32(counted - lit);
         terms.transmission += through_weight / weights
-            * transmission_profile(through_mm / occluded, through_entry_cosine / occluded);
+            * transmission_profile(through_mm / occluded, through_entry_cosine);
     }
     return terms;
 }
