@@ -92,4 +92,8 @@ fn bundled_fit_is_current() {
             );
         }
     }
+    assert_eq!(
+        bundled_terms.transmission.entry_cosine_power, fresh_terms.transmission.entry_cosine_power,
+        "entry cosine power differs (a version 2 table?): {refresh}"
+    );
 }

@@ -28,7 +28,7 @@ const TOLERANCE: Tolerance = Tolerance {
 
 const SIZE: u32 = 192;
 
-/// The bundled measured table, which must carry its translucency terms (format version 2).
+/// The bundled measured table, which must carry its translucency terms (format version 3).
 fn wax() -> (CdrfLut, Translucency) {
     let path = data_dir().join("wax-fit/measured.exr");
     let lut = read_lut(&path).unwrap_or_else(|error| panic!("{error}"));
@@ -304,12 +304,14 @@ fn a_slab_lit_obliquely_from_behind_glows_by_its_entry_cosine() {
     let found = mean_red(&glowing, pixel_of(0.0, 0.0, half_height), 4);
     let entry_cosine = -theta.cos();
     let t = translucency.transmission;
-    let expected = t.evaluate(thickness_mm / entry_cosine, entry_cosine).x
-        * view.sample(theta, 0.0).x
-        / PI;
+    let expected =
+        t.evaluate(thickness_mm / entry_cosine, entry_cosine).x * view.sample(theta, 0.0).x / PI;
     // What T of the chord alone (entry cosine 1) would give: twice as bright.
-    let without_entry = t.evaluate(thickness_mm / entry_cosine, 1.0).x * view.sample(theta, 0.0).x / PI;
-    println!("oblique slab: {found:.6} (T(8 mm, 0.5) says {expected:.6}; with μ = 1 {without_entry:.6})");
+    let without_entry =
+        t.evaluate(thickness_mm / entry_cosine, 1.0).x * view.sample(theta, 0.0).x / PI;
+    println!(
+        "oblique slab: {found:.6} (T(8 mm, 0.5) says {expected:.6}; with μ = 1 {without_entry:.6})"
+    );
     assert!(
         (found - expected).abs() < 0.03 * expected,
         "{found} vs {expected}"

@@ -380,8 +380,8 @@ impl CdrfLut {
         self
     }
 
-    /// The material's non-local terms, when the table carries them (format version 2 files
-    /// written by cdrf-fit do; older files and tabulated models do not).
+    /// The material's non-local terms, when the table carries them (files of format version 2
+    /// or later written by cdrf-fit do; version 1 files and tabulated models do not).
     pub fn translucency(&self) -> Option<&Translucency> {
         self.translucency.as_ref()
     }

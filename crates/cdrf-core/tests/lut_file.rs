@@ -271,7 +271,9 @@ fn a_version_1_file_still_loads() {
 fn a_version_2_file_still_loads() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/lut-v2.exr");
     let lut = read_lut(&path).unwrap();
-    let translucency = lut.translucency().expect("version 2 file with translucency");
+    let translucency = lut
+        .translucency()
+        .expect("version 2 file with translucency");
     let t = translucency.transmission;
     assert_eq!(t.entry_cosine_power, 0.0);
     // The version 2 fit of the wax spheres: A ≈ 0.028, ℓ ≈ 12.1 mm (red), σ ≈ 5.4 mm.

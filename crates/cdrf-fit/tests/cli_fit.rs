@@ -680,7 +680,11 @@ fn three_spheres_give_every_output() {
         svg.starts_with("<svg") && svg.contains("T(d, 1) G"),
         "transmission.svg"
     );
-    assert!(run.stderr.contains("transmission T(d, mu)"), "{}", run.stderr);
+    assert!(
+        run.stderr.contains("transmission T(d, mu)"),
+        "{}",
+        run.stderr
+    );
 }
 
 #[test]

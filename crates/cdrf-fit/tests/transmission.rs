@@ -310,8 +310,9 @@ struct TransmittingSphere;
 
 impl Cdrf for TransmittingSphere {
     fn reflectance(&self, curvature_per_mm: f32, theta_rad: f32) -> [f32; 3] {
-        (Vec3::splat(0.8 * theta_rad.cos().max(0.0)) + sphere_truth(1.0 / curvature_per_mm, theta_rad))
-            .to_array()
+        (Vec3::splat(0.8 * theta_rad.cos().max(0.0))
+            + sphere_truth(1.0 / curvature_per_mm, theta_rad))
+        .to_array()
     }
 }
 
