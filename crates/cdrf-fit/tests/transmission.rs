@@ -145,17 +145,13 @@ fn exact_shadow_sides_give_the_profile_back() {
     for (c, channel) in fit.channels.iter().enumerate() {
         // 110° … 172° on 0.5° nodes, every sphere, down to 10⁻⁴ of the peak (0.8 + A).
         let floor = 1e-4 * (0.8 + AMPLITUDE[c]);
-        let expected: Vec<f32> = RADII_MM
+        let expected = RADII_MM
             .iter()
-            .flat_map(|&r| {
-                (220..=344)
-                    .filter(move |&a| sphere_truth(r, theta_at(a))[c] >= floor)
-                    .map(move |a| -2.0 * r * theta_at(a).cos())
-            })
-            .collect();
-        assert_eq!(channel.points.len(), expected.len(), "channel {c}");
-        let expected = expected.len();
-        assert!(expected > 400, "{expected}");
+            .flat_map(|&r| (220..=344).filter(move |&a| sphere_truth(r, theta_at(a))[c] >= floor))
+            .count();
+        assert_eq!(channel.points.len(), expected, "channel {c}");
+        // Blue, the shortest ℓ, keeps the fewest: 379 of the 1 000 nodes.
+        assert!(expected > 350, "{expected}");
         assert!(
             channel
                 .points
@@ -176,10 +172,16 @@ fn exact_shadow_sides_give_the_profile_back() {
         );
         assert!(channel.relative_rms < 1e-3, "{}", channel.relative_rms);
         assert_eq!(channel.mean_ratio_per_sphere.len(), 8);
-        for ratio in &channel.mean_ratio_per_sphere {
-            let ratio = ratio.expect("every sphere has points");
-            assert!((ratio - 1.0).abs() < 1e-3, "{ratio}");
+        // Every sphere with a node above the floor has points (all but r = 50 mm in blue).
+        for (ratio, &r) in channel.mean_ratio_per_sphere.iter().zip(&RADII_MM) {
+            let has_points = (220..=344).any(|a| sphere_truth(r, theta_at(a))[c] >= floor);
+            assert_eq!(ratio.is_some(), has_points, "r = {r} mm, channel {c}");
+            if let Some(ratio) = ratio {
+                assert!((ratio - 1.0).abs() < 1e-3, "{ratio}");
+            }
         }
+        let with_points = channel.mean_ratio_per_sphere.iter().flatten().count();
+        assert!(with_points >= 7, "{with_points} spheres with points");
     }
 }
 
@@ -256,8 +258,9 @@ fn lit_side_only_or_too_few_points_is_a_typed_error() {
 #[test]
 fn a_shadow_side_that_brightens_with_the_chord_is_a_typed_error() {
     let mut rising = curve(30.0, |_| 1.0);
+    // Faster than the entry cosine rises (0.34 → 0.99 over the shadow side): f/μ rises too.
     for a in 0..NODES {
-        rising.values[a] = Vec3::splat(1e-3 * (1.0 + a as f32));
+        rising.values[a] = Vec3::splat(1e-3 * (0.05 * a as f32).exp());
     }
     let error = fit_transmission(&[rising.view()], &TransmissionSettings::default()).unwrap_err();
     assert!(
