@@ -418,12 +418,16 @@ struct NonLocalTerms {
 // T(d, μ): light through `thickness_mm` of material that entered it at the cosine
 // `entry_cosine` to the surface.
 fn transmission_profile(thickness_mm: f32, entry_cosine: f32) -> vec3<f32> {
-    var entry = 1.0;
-    if material.transmission_amplitude.w > 0.0 {
-        entry = pow(clamp(entry_cosine, 1e-6, 1.0), material.transmission_amplitude.w);
-    }
-    return material.transmission_amplitude.xyz * entry
+    return material.transmission_amplitude.xyz * entry_factor(entry_cosine)
         * exp(-max(thickness_mm, 0.0) / material.transmission_length_mm.xyz);
+}
+
+// μ^p of T(d, μ) (p = 0: 1).
+fn entry_factor(entry_cosine: f32) -> f32 {
+    if material.transmission_amplitude.w > 0.0 {
+        return pow(clamp(entry_cosine, 1e-6, 1.0), material.transmission_amplitude.w);
+    }
+    return 1.0;
 }
 
 // Cosine between the light and the first surface it meets in column `texel` of map `index`,
@@ -567,16 +571,18 @@ fn non_local_terms(
         } else {
             unoccluded += weight;
             lit += 1u;
-            if k == 0u && (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u {
-                // Thinner than the local shape by more than the tolerance.
-                // Both at the entry cosine the map shows: on the sphere itself the difference
-                // vanishes whatever the error of the slope estimate.
-                let entry = entry_cosine(index, texel, texel_mm, depth_range_mm);
+            if k == 0u && (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u && n.z > 0.0 {
+                // Thinner than the local shape by more than the tolerance; both chords at the
+                // entry cosine the map shows, so on the sphere itself the difference vanishes
+                // whatever the error of the slope estimate (read only where it is needed).
                 thin = max(
-                    transmission_profile(p.z - occluder, entry)
-                        - transmission_profile(p.z - expected - tolerance, entry),
+                    transmission_profile(p.z - occluder, 1.0)
+                        - transmission_profile(p.z - expected - tolerance, 1.0),
                     vec3<f32>(0.0),
                 );
+                if any(thin > vec3<f32>(0.0)) {
+                    thin *= entry_factor(entry_cosine(index, texel, texel_mm, depth_range_mm));
+                }
             }
         }
     }
