@@ -24,7 +24,7 @@
 //   - transmission: light of occluded columns arrives through d mm of the occluder (light-space
 //     depth difference) as T(d, μ), μ the cosine at which it entered the occluder (from the
 //     shadow map's depth slope); where the point's own column is thinner than the sphere
-//     predicts (a fin, a slab lit from behind) T(d, μ) − T(d_sphere, μ_sphere) is added.
+//     predicts (a fin, a slab lit from behind) T(d, μ) − T(d_sphere, μ) is added.
 // Per light: f → V·f (shadows) + T_occluded + T_thin (transmission), all times g(θ, φ). The
 // terms are evaluated per vertex and interpolated (they vary over σ); Lambert's, per pixel.
 
@@ -430,16 +430,21 @@ fn entry_factor(entry_cosine: f32) -> f32 {
     return 1.0;
 }
 
+// Depth (0–1) of map `index` at `texel + step`, clamped to the map.
+fn neighbour_depth(index: u32, texel: vec2<i32>, step: vec2<i32>) -> f32 {
+    let last = vec2<i32>(i32(shadows.params.z) - 1);
+    return textureLoad(shadow_maps, clamp(texel + step, vec2<i32>(0), last), i32(index), 0);
+}
+
 // Cosine between the light and the first surface it meets in column `texel` of map `index`,
 // from the map's depth slope (the gentler one-sided difference per axis, so a depth jump at a
 // silhouette does not count as slope).
 fn entry_cosine(index: u32, texel: vec2<i32>, texel_mm: f32, depth_range_mm: f32) -> f32 {
-    let last = i32(shadows.params.z) - 1;
     let here = textureLoad(shadow_maps, texel, i32(index), 0);
-    let left = textureLoad(shadow_maps, clamp(texel - vec2<i32>(1, 0), vec2<i32>(0), vec2<i32>(last)), i32(index), 0);
-    let right = textureLoad(shadow_maps, clamp(texel + vec2<i32>(1, 0), vec2<i32>(0), vec2<i32>(last)), i32(index), 0);
-    let down = textureLoad(shadow_maps, clamp(texel - vec2<i32>(0, 1), vec2<i32>(0), vec2<i32>(last)), i32(index), 0);
-    let up = textureLoad(shadow_maps, clamp(texel + vec2<i32>(0, 1), vec2<i32>(0), vec2<i32>(last)), i32(index), 0);
+    let left = neighbour_depth(index, texel, vec2<i32>(-1, 0));
+    let right = neighbour_depth(index, texel, vec2<i32>(1, 0));
+    let down = neighbour_depth(index, texel, vec2<i32>(0, -1));
+    let up = neighbour_depth(index, texel, vec2<i32>(0, 1));
     var dx = right - here;
     if abs(here - left) < abs(dx) {
         dx = here - left;
@@ -536,8 +541,7 @@ fn non_local_terms(
         let uv = vec2<f32>(0.5, 0.5) + vec2<f32>(0.5, -0.5) * surface.xy / half_extent_mm;
         let texel = vec2<i32>(floor(uv * resolution));
         var occluder = depth_range_mm;
-        let inside = all(texel >= vec2<i32>(0)) && all(texel < vec2<i32>(i32(resolution)));
-        if inside {
+        if all(texel >= vec2<i32>(0)) && all(texel < vec2<i32>(i32(resolution))) {
             occluder = textureLoad(shadow_maps, texel, i32(index), 0) * depth_range_mm;
         }
         // Allowed mismatch: the bias, plus (half a texel across the light, and the shape's sag
@@ -563,8 +567,9 @@ fn non_local_terms(
         if occluder < expected - tolerance {
             through_weight += weight;
             through_mm += surface.z - occluder;
-            // The entry cosine at the first occluded column only: five more loads per column
-            // would cost more than the slope varies over the footprint.
+            // The entry cosine at the first occluded column only: read at every occluded
+            // column instead, the torus's errors against path tracing moved by ≤ 1.6 points
+            // (cast shadow 111.5 % instead of 109.9 %).
             if (NON_LOCAL & NON_LOCAL_TRANSMISSION) != 0u && through_entry_cosine < 0.0 {
                 through_entry_cosine = entry_cosine(index, texel, texel_mm, depth_range_mm);
             }

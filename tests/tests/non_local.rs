@@ -208,24 +208,26 @@ fn a_shape_shadowing_another() {
     );
 }
 
+/// A flat slab `thickness_mm` thick and 60 mm square, its faces normal to z, in 2 mm quads (the
+/// terms are evaluated per vertex).
+fn slab(thickness_mm: f32, material: Material) -> SceneAssets {
+    let mesh = Mesh::cuboid(Vec3::new(30.0, 30.0, 0.5 * thickness_mm), 30);
+    SceneAssets {
+        curvature_per_mm: vec![0.0; mesh.positions.len()],
+        mesh,
+        material,
+    }
+}
+
 /// A 4 mm wax slab lit from behind: its front glows by T(4 mm, 1) (transmission), and is dark
-/// without it (a flat face turned away from the light has almost nothing in the table). Lit
-/// from behind at 60° to its normal, the light crosses 8 mm and enters at the cosine 0.5: the
-/// glow is T(8 mm, 0.5), the entry cosine read from the shadow map's depth slope.
+/// without it (a flat face turned away from the light has almost nothing in the table).
 #[test]
 fn a_thin_slab_glows_from_behind() {
     let (lut, translucency) = wax();
     let thickness_mm = 4.0;
-    // 2 mm quads: the terms are evaluated per vertex.
-    let mesh = Mesh::cuboid(Vec3::new(30.0, 30.0, 0.5 * thickness_mm), 30);
-    let curvature_per_mm = vec![0.0; mesh.positions.len()];
     let view = lut.view_correction().clone();
     let flat_back = lut.sample(0.0, PI, Filter::Bilinear) * view.sample(PI, 0.0);
-    let assets = SceneAssets {
-        mesh,
-        curvature_per_mm,
-        material: Material::Measured(lut),
-    };
+    let assets = slab(thickness_mm, Material::Measured(lut));
     let half_height = 40.0;
     let from_behind = Vec3::NEG_Z;
     let transmission = NonLocal {
@@ -260,12 +262,7 @@ fn a_thin_slab_glows_from_behind() {
     assert!(without < 0.2 * found, "{without} vs {found}");
 
     // Twice as thick: dimmer by exp(−4 mm / ℓ).
-    let thick = Mesh::cuboid(Vec3::new(30.0, 30.0, thickness_mm), 30);
-    let assets = SceneAssets {
-        curvature_per_mm: vec![0.0; thick.positions.len()],
-        mesh: thick,
-        ..assets
-    };
+    let assets = slab(2.0 * thickness_mm, assets.material);
     let thicker = mean_red(
         &render_predictable(&scene(half_height, from_behind, transmission), &assets),
         centre,
@@ -285,14 +282,8 @@ fn a_thin_slab_glows_from_behind() {
 fn a_slab_lit_obliquely_from_behind_glows_by_its_entry_cosine() {
     let (lut, translucency) = wax();
     let thickness_mm = 4.0;
-    let mesh = Mesh::cuboid(Vec3::new(30.0, 30.0, 0.5 * thickness_mm), 30);
-    let curvature_per_mm = vec![0.0; mesh.positions.len()];
     let view = lut.view_correction().clone();
-    let assets = SceneAssets {
-        mesh,
-        curvature_per_mm,
-        material: Material::Measured(lut),
-    };
+    let assets = slab(thickness_mm, Material::Measured(lut));
     let half_height = 40.0;
     let theta = 120.0_f32.to_radians();
     let oblique = Vec3::new(theta.sin(), 0.0, theta.cos());

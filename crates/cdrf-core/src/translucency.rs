@@ -14,8 +14,8 @@
 //!   `d` mm of material arrives as `E/π · T(d, μ) · g`, with the profile
 //!   `T(d, μ) = A·μ^p·exp(−d/ℓ)` ([`TransmissionProfile`]; p = 1: the irradiance entering is
 //!   `E·μ`); it replaces the CDRF where the point is in a cast shadow and adds
-//!   `T(d, μ) − T(d_local, μ_local)` where the object is thinner than the osculating sphere
-//!   (ears, fins, slabs lit from behind).
+//!   `T(d, μ) − T(d_local, μ)` where the object is thinner than the osculating sphere (ears,
+//!   fins, slabs lit from behind).
 //!
 //! Both terms are measured from the same sphere photographs as the table (cdrf-fit): the
 //! scattering length is the width of the terminator (Kubo's σ, a length in mm), and T(d, μ) is
