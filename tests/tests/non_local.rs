@@ -10,10 +10,10 @@ use std::path::PathBuf;
 
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::RgbaImage;
+use cdrf_core::light::{DirectionalLight, NonLocal};
 use cdrf_core::lut::Filter;
 use cdrf_core::scene::{
-    Camera, DirectionalLight, Material, MeshSpec, ModelTransform, NonLocal, Projection, Scene,
-    SceneAssets, ShadingSpec,
+    Camera, Material, MeshSpec, ModelTransform, Projection, Scene, SceneAssets, ShadingSpec,
 };
 use cdrf_core::{CdrfLut, CurvatureOptions, Mesh, Translucency, mean_curvature_per_mm, read_lut};
 use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};

@@ -7,7 +7,8 @@
 
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::RgbaImage;
-use cdrf_core::scene::{Material, NonLocal, Scene, SceneAssets};
+use cdrf_core::light::NonLocal;
+use cdrf_core::scene::{Material, Scene, SceneAssets};
 use cdrf_render::headless::{HeadlessDevice, RenderSettings, render_scene};
 use cdrf_render::{Options, wgpu};
 use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
@@ -258,10 +259,7 @@ fn render_unorm(scene: &Scene, assets: &SceneAssets) -> Srgb8Image {
     let mesh = renderer
         .create_mesh(
             device,
-            &MeshDesc {
-                mesh: &assets.mesh,
-                curvature_per_mm: &assets.curvature_per_mm,
-            },
+            &MeshDesc::from_mesh(&assets.mesh, &assets.curvature_per_mm),
         )
         .unwrap();
     let Material::Measured(lut) = &assets.material else {
@@ -354,42 +352,14 @@ fn record_and_read_back(
         });
         renderer.render(&mut pass);
     }
-    let bytes_per_row = (width * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("test readback"),
-        size: u64::from(bytes_per_row * height),
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    encoder.copy_texture_to_buffer(
-        color.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(bytes_per_row),
-                rows_per_image: Some(height),
-            },
-        },
-        wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        },
-    );
+    let readback = cdrf_render::readback::TextureReadback::record(device, &mut encoder, &color)
+        .expect("readable format");
     queue.submit([encoder.finish()]);
-    buffer.map_async(wgpu::MapMode::Read, .., |result| result.unwrap());
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .expect("poll");
-    let data = buffer.get_mapped_range(..).expect("mapped");
-    let pixels = data
-        .chunks_exact(bytes_per_row as usize)
-        .flat_map(|row| {
-            row[..width as usize * 4]
-                .chunks_exact(4)
-                .map(|p| [p[0], p[1], p[2], p[3]])
-        })
+    let pixels = readback
+        .read(device)
+        .expect("read back")
+        .chunks_exact(4)
+        .map(|p| [p[0], p[1], p[2], p[3]])
         .collect();
     Srgb8Image {
         width,
@@ -669,7 +639,7 @@ fn compare_gaussian_evaluations(scene: &Scene, assets: &SceneAssets, radius_mm: 
 }
 
 /// One directional light from the image's left, irradiance 1.
-const ONE_LIGHT: [cdrf_core::scene::DirectionalLight; 1] = [cdrf_core::scene::DirectionalLight {
+const ONE_LIGHT: [cdrf_core::light::DirectionalLight; 1] = [cdrf_core::light::DirectionalLight {
     to_light: Vec3::NEG_X,
     irradiance: [1.0; 3],
 }];
@@ -724,10 +694,7 @@ impl LambertSphere {
         renderer
             .create_mesh(
                 &software_device().device,
-                &cdrf_render::MeshDesc {
-                    mesh: &sphere,
-                    curvature_per_mm: &curvature,
-                },
+                &cdrf_render::MeshDesc::from_mesh(&sphere, &curvature),
             )
             .unwrap()
     }
@@ -737,7 +704,7 @@ impl LambertSphere {
 /// failed `prepare` draws nothing; a new target gets its own pipeline.
 #[test]
 fn render_before_prepare_and_after_errors_draws_nothing() {
-    use cdrf_core::scene::DirectionalLight;
+    use cdrf_core::light::DirectionalLight;
     use cdrf_render::{Draw, FrameDesc, PrepareError, Renderer, TargetDesc};
     let HeadlessDevice { device, queue, .. } = software_device();
     let format = wgpu::TextureFormat::Rgba8UnormSrgb;

@@ -34,6 +34,7 @@ pub mod curvature;
 pub mod gaussian;
 pub mod gaussian_file;
 pub mod image_file;
+pub mod light;
 pub mod lut;
 pub mod lut_file;
 pub mod mesh;

@@ -35,7 +35,7 @@
 //! transmission = false          # optional: light through thin parts, T(d, μ) (default false)
 //! ```
 //!
-//! `shadows` and `transmission` are the non-local terms ([`NonLocal`], see
+//! `shadows` and `transmission` are the non-local terms ([`NonLocal`](crate::light::NonLocal), see
 //! [`crate::translucency`]); both off is the poster's local model.
 //!
 //! # Units
@@ -58,6 +58,7 @@ use thiserror::Error;
 use crate::curvature::{CurvatureError, CurvatureOptions, mean_curvature_per_mm};
 use crate::gaussian::GaussianCdrf;
 use crate::gaussian_file::{GaussianFileError, read_gaussian};
+use crate::light::{DirectionalLight, NonLocal};
 use crate::lut::{CdrfLut, ViewCorrection};
 use crate::lut_file::{LutFileError, read_lut};
 use crate::mesh::{LoadError, Mesh};
@@ -75,31 +76,6 @@ pub struct Scene {
     pub shading: ShadingSpec,
     /// The non-local terms (`[shading] shadows`, `transmission`).
     pub non_local: NonLocal,
-}
-
-/// Which non-local terms a render adds to the CDRF (see [`crate::translucency`]). The default,
-/// both off, is the poster's local model.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct NonLocal {
-    /// Translucent visibility: cast shadows from shadow maps, with a penumbra as wide as the
-    /// material's scattering length.
-    pub shadows: bool,
-    /// Transmission: light through parts thinner than the CDRF assumes, and (with `shadows`)
-    /// through occluders, by the material's T(d, μ).
-    pub transmission: bool,
-}
-
-impl NonLocal {
-    /// Neither term: the poster's local model.
-    pub const OFF: Self = Self {
-        shadows: false,
-        transmission: false,
-    };
-
-    /// Whether any term is on.
-    pub fn any(self) -> bool {
-        self.shadows || self.transmission
-    }
 }
 
 /// The mesh of a scene.
@@ -219,15 +195,6 @@ impl Camera {
             }
         }
     }
-}
-
-/// A directional light.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DirectionalLight {
-    /// Unit vector toward the light, world space.
-    pub to_light: Vec3,
-    /// Irradiance on a surface facing the light, linear, per RGB channel.
-    pub irradiance: [f32; 3],
 }
 
 /// The shading model and its data files.

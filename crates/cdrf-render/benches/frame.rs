@@ -19,11 +19,11 @@ use std::path::PathBuf;
 use cdrf_core::gaussian_file::read_gaussian;
 use cdrf_core::glam::Vec3;
 use cdrf_core::scene::{
-    Camera, DirectionalLight, Material, MeshSpec, ModelTransform, NonLocal, Projection, Scene,
-    SceneAssets, ShadingSpec,
+    Camera, Material, MeshSpec, ModelTransform, Projection, Scene, SceneAssets, ShadingSpec,
 };
 use cdrf_core::{CurvatureOptions, Mesh, mean_curvature_per_mm, read_lut};
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
+use cdrf_render::{DirectionalLight, NonLocal};
 use cdrf_render::{GaussianEvaluation, LutFiltering, Options};
 
 const SIZE: u32 = 1024;

@@ -30,7 +30,7 @@
 //! // Once: describe your pass's attachments, upload meshes and materials.
 //! let target = TargetDesc::new(surface_format).with_sample_count(4).with_depth(Depth32Float);
 //! let mut renderer = Renderer::new(&device, &target, Options::default());
-//! let mesh = renderer.create_mesh(&device, &MeshDesc { mesh: &mesh, curvature_per_mm: &kappa })?;
+//! let mesh = renderer.create_mesh(&device, &MeshDesc::from_mesh(&mesh, &kappa))?;
 //! let wax = renderer.create_material(&device, &queue, &MaterialDesc::Measured { lut: &lut })?;
 //! // Each frame, before your pass: camera, lights, draws.
 //! let draws = [Draw { mesh, material: wax, world_from_model }];
@@ -54,8 +54,8 @@ use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::gaussian_file::read_gaussian;
 use cdrf_core::glam::Vec3;
 use cdrf_core::glam::camera::rh::{proj::directx, view};
-use cdrf_core::scene::{DirectionalLight, NonLocal};
 use cdrf_core::{CdrfLut, CurvatureOptions, Mesh, ViewCorrection, mean_curvature_per_mm, read_lut};
+use cdrf_render::{DirectionalLight, NonLocal};
 use cdrf_render::{
     Draw, FrameDesc, MaterialDesc, MaterialId, MeshDesc, MeshId, Options, Renderer, TargetDesc,
     ToCamera, View, wgpu,
@@ -469,10 +469,7 @@ impl Gpu {
         let mesh = renderer
             .create_mesh(
                 &device,
-                &MeshDesc {
-                    mesh: &scene.mesh,
-                    curvature_per_mm: &scene.curvature_per_mm,
-                },
+                &MeshDesc::from_mesh(&scene.mesh, &scene.curvature_per_mm),
             )
             .map_err(|e| Failure::caused(format!("uploading {}", scene.name), &e))?;
         let gaussian_desc = MaterialDesc::Gaussian {

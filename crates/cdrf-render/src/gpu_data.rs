@@ -1,5 +1,5 @@
-//! Plain-old-data packing for uniforms, vertices and half-float textures (no `unsafe`, no
-//! extra dependencies).
+//! Half-float texture data and a blocking wait for wgpu's futures (no `unsafe`, no extra
+//! dependencies).
 
 use std::future::Future;
 use std::pin::pin;
@@ -7,44 +7,7 @@ use std::sync::Arc;
 use std::task::{Context, Poll, Wake, Waker};
 use std::thread::{self, Thread};
 
-use cdrf_core::glam::{Mat4, Vec3, Vec4};
-
-/// Little helper that appends f32s in native byte order, as the GPU reads them.
-#[derive(Default)]
-pub(crate) struct Bytes(pub(crate) Vec<u8>);
-
-impl Bytes {
-    pub(crate) fn with_capacity(bytes: usize) -> Self {
-        Self(Vec::with_capacity(bytes))
-    }
-
-    pub(crate) fn f32(&mut self, value: f32) -> &mut Self {
-        self.0.extend_from_slice(&value.to_ne_bytes());
-        self
-    }
-
-    pub(crate) fn vec3(&mut self, value: Vec3) -> &mut Self {
-        self.f32(value.x).f32(value.y).f32(value.z)
-    }
-
-    pub(crate) fn vec4(&mut self, value: Vec4) -> &mut Self {
-        self.vec3(value.truncate()).f32(value.w)
-    }
-
-    pub(crate) fn mat4(&mut self, value: Mat4) -> &mut Self {
-        for column in value.to_cols_array() {
-            self.f32(column);
-        }
-        self
-    }
-
-    /// Pads with zeros to a multiple of `alignment` bytes.
-    pub(crate) fn pad_to(&mut self, alignment: usize) -> &mut Self {
-        let padded = self.0.len().next_multiple_of(alignment);
-        self.0.resize(padded, 0);
-        self
-    }
-}
+use cdrf_core::glam::Vec3;
 
 /// IEEE 754 binary16 bits of `value`, rounded to nearest even; overflow gives ±∞, NaN stays NaN.
 pub(crate) fn f32_to_f16_bits(value: f32) -> u16 {

@@ -3,6 +3,9 @@
 //!
 //! This is the one place where cdrf-render creates a wgpu instance and device itself
 //! ([`HeadlessDevice`]); an application embedding the pass uses [`Renderer`] with its own.
+//! [`SceneRenderer`] renders one scene's object with several materials, lights and non-local
+//! terms through one [`Renderer`] (the mesh uploaded and each pipeline built once);
+//! [`render_scene`] is the one-image shorthand.
 //!
 //! The image is rendered into an `Rgba16Float` target (linear radiance; 11 significant bits,
 //! far below the 1 % noise of a path-traced reference) with the scene's MSAA sample count and
@@ -10,20 +13,23 @@
 //! camera follows the conventions of the bundled data (`data/README.md`): pixel (i, j), row 0
 //! at the top, has its centre at `x = (i + 0.5 − W/2)·2h/H` along the camera's right axis.
 
-use std::fmt;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use cdrf_core::glam::Mat4;
 use cdrf_core::image_file::RgbaImage;
+use cdrf_core::light::{DirectionalLight, NonLocal};
 use cdrf_core::scene::{Material, Projection, Scene, SceneAssets, SceneError};
+use thiserror::Error;
 
+use crate::error::{MaterialError, MeshUploadError, PrepareError};
+use crate::frame::{Draw, FrameDesc, View};
 use crate::gpu_data::{block_on, f16_bits_to_f32};
+use crate::material::{MaterialDesc, MaterialId};
+use crate::mesh::{MeshDesc, MeshId};
 use crate::offscreen::OffscreenTarget;
-use crate::renderer::{
-    Draw, FrameDesc, MaterialDesc, MaterialError, MeshDesc, MeshUploadError, PrepareError,
-    Renderer, View,
-};
+use crate::readback::{ReadbackError, TextureReadback};
+use crate::renderer::Renderer;
 use crate::target::{Options, TargetDesc};
 
 /// The colour format of headless renders.
@@ -52,10 +58,16 @@ pub struct HeadlessDevice {
 }
 
 /// Why a headless render failed.
-#[derive(Debug)]
+#[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum HeadlessError {
     /// No adapter (of the preferred kind) exists.
+    #[error(
+        "{} (adapters present: {}). For software rendering install Mesa's Vulkan driver: \
+         `sudo apt-get install mesa-vulkan-drivers libvulkan1` (Debian/Ubuntu)",
+        no_adapter_message(*preference),
+        adapter_list(available)
+    )]
     NoAdapter {
         /// What was asked for.
         preference: AdapterPreference,
@@ -63,10 +75,13 @@ pub enum HeadlessError {
         available: Vec<String>,
     },
     /// The adapter refused to create a device.
-    Device(wgpu::RequestDeviceError),
+    #[error("creating the device: {0}")]
+    Device(#[from] wgpu::RequestDeviceError),
     /// The scene file or one of its assets is unusable.
-    Scene(SceneError),
+    #[error("{0}")]
+    Scene(#[from] SceneError),
     /// The mesh could not be uploaded.
+    #[error("{}: {error}", path.display())]
     Mesh {
         /// The mesh file.
         path: PathBuf,
@@ -74,54 +89,34 @@ pub enum HeadlessError {
         error: MeshUploadError,
     },
     /// The material could not be created.
-    Material(MaterialError),
+    #[error("material: {0}")]
+    Material(#[from] MaterialError),
     /// The frame could not be prepared.
-    Prepare(PrepareError),
+    #[error("{0}")]
+    Prepare(#[from] PrepareError),
     /// The frame settings are out of range.
+    #[error("{0}")]
     Settings(String),
+    /// Reading the image back failed.
+    #[error("reading the image back: {0}")]
+    Readback(#[from] ReadbackError),
     /// wgpu reported an error while rendering or reading back.
+    #[error("wgpu: {0}")]
     Gpu(String),
 }
 
-impl fmt::Display for HeadlessError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::NoAdapter {
-                preference,
-                available,
-            } => {
-                let wanted = match preference {
-                    AdapterPreference::Any => "no graphics adapter found",
-                    AdapterPreference::Software => "no software (CPU) graphics adapter found",
-                };
-                let found = if available.is_empty() {
-                    "none".to_owned()
-                } else {
-                    available.join(", ")
-                };
-                write!(
-                    f,
-                    "{wanted} (adapters present: {found}). For software rendering install \
-                     Mesa's Vulkan driver: `sudo apt-get install mesa-vulkan-drivers libvulkan1` \
-                     (Debian/Ubuntu)"
-                )
-            }
-            Self::Device(error) => write!(f, "creating the device: {error}"),
-            Self::Scene(error) => write!(f, "{error}"),
-            Self::Mesh { path, error } => write!(f, "{}: {error}", path.display()),
-            Self::Material(error) => write!(f, "material: {error}"),
-            Self::Prepare(error) => write!(f, "{error}"),
-            Self::Settings(message) => write!(f, "{message}"),
-            Self::Gpu(message) => write!(f, "wgpu: {message}"),
-        }
+fn no_adapter_message(preference: AdapterPreference) -> &'static str {
+    match preference {
+        AdapterPreference::Any => "no graphics adapter found",
+        AdapterPreference::Software => "no software (CPU) graphics adapter found",
     }
 }
 
-impl std::error::Error for HeadlessError {}
-
-impl From<SceneError> for HeadlessError {
-    fn from(error: SceneError) -> Self {
-        Self::Scene(error)
+fn adapter_list(available: &[String]) -> String {
+    if available.is_empty() {
+        "none".to_owned()
+    } else {
+        available.join(", ")
     }
 }
 
@@ -168,8 +163,7 @@ impl HeadlessDevice {
             required_features: wgpu::Features::empty(),
             required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
             ..Default::default()
-        }))
-        .map_err(HeadlessError::Device)?;
+        }))?;
         Ok(Self {
             device,
             queue,
@@ -235,7 +229,8 @@ pub fn render_scene_file(
     render_scene(&device, &scene, &assets, settings)
 }
 
-/// Renders `scene` (its assets already loaded) on `device`.
+/// Renders `scene` (its assets already loaded) on `device` with the scene's material, lights
+/// and non-local terms.
 ///
 /// # Errors
 /// [`HeadlessError`].
@@ -245,129 +240,215 @@ pub fn render_scene(
     assets: &SceneAssets,
     settings: &RenderSettings,
 ) -> Result<Rendered, HeadlessError> {
-    let camera = &scene.camera;
-    let (width, height) = (camera.width, camera.height);
-    let max_side = device.device.limits().max_texture_dimension_2d;
-    if width == 0 || height == 0 || width > max_side || height > max_side {
-        return Err(HeadlessError::Settings(format!(
-            "image size {width} × {height}: each side must be 1..={max_side} on this device"
-        )));
+    let mut renderer = SceneRenderer::new(device, scene, assets, settings)?;
+    let material = renderer.add_material(&assets.material)?;
+    renderer.render(material, &scene.lights, scene.non_local)
+}
+
+/// One scene's object rendered headless through one [`Renderer`]: the mesh is uploaded once,
+/// each material once ([`SceneRenderer::add_material`]) and each pipeline built once, so a
+/// comparison of several models, lights or non-local terms on one object costs a frame each.
+/// The camera, mesh, transform and units are the scene's.
+pub struct SceneRenderer<'a> {
+    device: &'a HeadlessDevice,
+    scene: &'a Scene,
+    settings: RenderSettings,
+    renderer: Renderer,
+    mesh: MeshId,
+    world_from_model: Mat4,
+    view: View,
+    targets: OffscreenTarget,
+}
+
+impl<'a> SceneRenderer<'a> {
+    /// Uploads the scene's mesh and sizes the target to its camera.
+    ///
+    /// # Errors
+    /// [`HeadlessError::Settings`] for an image size the device cannot render,
+    /// [`HeadlessError::Mesh`] naming the mesh file.
+    pub fn new(
+        device: &'a HeadlessDevice,
+        scene: &'a Scene,
+        assets: &SceneAssets,
+        settings: &RenderSettings,
+    ) -> Result<Self, HeadlessError> {
+        let camera = &scene.camera;
+        let (width, height) = (camera.width, camera.height);
+        let max_side = device.device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max_side || height > max_side {
+            return Err(HeadlessError::Settings(format!(
+                "image size {width} × {height}: each side must be 1..={max_side} on this device"
+            )));
+        }
+        let target = TargetDesc::new(HEADLESS_COLOR_FORMAT)
+            .with_sample_count(camera.msaa_samples)
+            .with_depth(HEADLESS_DEPTH_FORMAT);
+        // Headless builds its own projection (depth 0 at near, 1 at far), so the depth test is
+        // `Less` whatever the options say.
+        let options = Options {
+            depth_compare: wgpu::CompareFunction::Less,
+            ..settings.options
+        };
+        let scope = device
+            .device
+            .push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut renderer = Renderer::new(&device.device, &target, options);
+        let mesh = renderer
+            .create_mesh(
+                &device.device,
+                &MeshDesc::from_mesh(&assets.mesh, &assets.curvature_per_mm),
+            )
+            .map_err(|error| HeadlessError::Mesh {
+                path: scene.mesh.path.clone(),
+                error,
+            })?;
+        let targets = OffscreenTarget::new(&device.device, &target, width, height);
+        if let Some(error) = block_on(scope.pop()) {
+            return Err(HeadlessError::Gpu(error.to_string()));
+        }
+        let world_from_model = scene.mesh.transform.world_from_model();
+        let (near, far) = depth_range(scene, assets, world_from_model);
+        Ok(Self {
+            device,
+            scene,
+            settings: *settings,
+            renderer,
+            mesh,
+            world_from_model,
+            view: View::from_camera(camera, near, far),
+            targets,
+        })
     }
-    let target = TargetDesc::new(HEADLESS_COLOR_FORMAT)
-        .with_sample_count(camera.msaa_samples)
-        .with_depth(HEADLESS_DEPTH_FORMAT);
-    let scope = device
-        .device
-        .push_error_scope(wgpu::ErrorFilter::Validation);
 
-    // Headless builds its own projection (depth 0 at near, 1 at far), so the depth test is
-    // `Less` whatever the options say.
-    let options = Options {
-        depth_compare: wgpu::CompareFunction::Less,
-        ..settings.options
-    };
-    let mut renderer = Renderer::new(&device.device, &target, options);
-    let mesh = renderer
-        .create_mesh(
-            &device.device,
-            &MeshDesc {
-                mesh: &assets.mesh,
-                curvature_per_mm: &assets.curvature_per_mm,
+    /// Uploads a material to render the object with.
+    ///
+    /// # Errors
+    /// [`HeadlessError::Material`].
+    pub fn add_material(&mut self, material: &Material) -> Result<MaterialId, HeadlessError> {
+        let desc = match material {
+            Material::Measured(lut) => MaterialDesc::Measured { lut },
+            Material::Gaussian {
+                model,
+                view_correction,
+            } => MaterialDesc::Gaussian {
+                model,
+                view_correction,
             },
-        )
-        .map_err(|error| HeadlessError::Mesh {
-            path: scene.mesh.path.clone(),
-            error,
-        })?;
-    let material_desc = match &assets.material {
-        Material::Measured(lut) => MaterialDesc::Measured { lut },
-        Material::Gaussian {
-            model,
-            view_correction,
-        } => MaterialDesc::Gaussian {
-            model,
-            view_correction,
-        },
-        Material::Lambert { albedo } => MaterialDesc::Lambert { albedo: *albedo },
-        Material::Curvature { range_per_mm } => MaterialDesc::Curvature {
-            range_per_mm: *range_per_mm,
-        },
-    };
-    let material = renderer
-        .create_material(&device.device, &device.queue, &material_desc)
-        .map_err(HeadlessError::Material)?;
+            Material::Lambert { albedo } => MaterialDesc::Lambert { albedo: *albedo },
+            Material::Curvature { range_per_mm } => MaterialDesc::Curvature {
+                range_per_mm: *range_per_mm,
+            },
+        };
+        Ok(self
+            .renderer
+            .create_material(&self.device.device, &self.device.queue, &desc)?)
+    }
 
-    let world_from_model = scene.mesh.transform.world_from_model();
-    let (near, far) = depth_range(scene, assets, world_from_model);
-    let draws = [Draw {
-        mesh,
-        material,
-        world_from_model,
-    }];
-    let frame = FrameDesc {
-        view: View::from_camera(camera, near, far),
-        lights: &scene.lights,
-        exposure: 1.0,
-        draws: &draws,
-        non_local: scene.non_local,
-        mm_per_world_unit: scene.mesh.mm_per_unit,
-    };
-
-    let targets = OffscreenTarget::new(&device.device, &target, width, height);
-    // The frame's commands: the shadow pass (when a non-local term is on), then the pass.
-    let render_frame =
-        |renderer: &mut Renderer| -> Result<Vec<wgpu::CommandBuffer>, HeadlessError> {
-            let mut commands = renderer
-                .prepare(&device.device, &device.queue, &frame)
-                .map_err(HeadlessError::Prepare)?;
-            let mut encoder =
-                device
-                    .device
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                        label: Some("cdrf headless frame"),
-                    });
-            {
-                let mut pass = targets.begin_pass(&mut encoder, wgpu::Color::TRANSPARENT);
-                renderer.render(&mut pass);
-            }
-            commands.push(encoder.finish());
-            Ok(commands)
+    /// Renders the object with `material` under `lights` and reads the image back; then, if
+    /// the settings ask for it, times frames.
+    ///
+    /// # Errors
+    /// [`HeadlessError`].
+    pub fn render(
+        &mut self,
+        material: MaterialId,
+        lights: &[DirectionalLight],
+        non_local: NonLocal,
+    ) -> Result<Rendered, HeadlessError> {
+        let device = self.device;
+        let scope = device
+            .device
+            .push_error_scope(wgpu::ErrorFilter::Validation);
+        let draws = [Draw {
+            mesh: self.mesh,
+            material,
+            world_from_model: self.world_from_model,
+        }];
+        let frame = FrameDesc {
+            view: self.view,
+            lights,
+            exposure: 1.0,
+            draws: &draws,
+            non_local,
+            mm_per_world_unit: self.scene.mesh.mm_per_unit,
+        };
+        let mut commands = self.frame_commands(&frame)?;
+        let mut encoder = device
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("cdrf headless readback"),
+            });
+        let readback =
+            TextureReadback::record(&device.device, &mut encoder, self.targets.resolved())?;
+        commands.push(encoder.finish());
+        device.queue.submit(commands);
+        let (width, height) = readback.size();
+        let texels = readback.read(&device.device)?;
+        let image = RgbaImage {
+            width,
+            height,
+            pixels: texels
+                .chunks_exact(8)
+                .map(|texel| {
+                    std::array::from_fn(|i| {
+                        f16_bits_to_f32(u16::from_ne_bytes([texel[2 * i], texel[2 * i + 1]]))
+                    })
+                })
+                .collect(),
         };
 
-    let mut commands = render_frame(&mut renderer)?;
-    let mut encoder = device
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("cdrf headless readback"),
-        });
-    let readback = copy_to_buffer(&targets, &device.device, &mut encoder);
-    commands.push(encoder.finish());
-    device.queue.submit(commands);
-    let image = readback.read(&device.device)?;
-
-    let mut ms_per_frame = None;
-    if settings.timed_frames > 0 {
-        for _ in 0..settings.warm_up_frames {
-            device.queue.submit(render_frame(&mut renderer)?);
+        let settings = self.settings;
+        let mut ms_per_frame = None;
+        if settings.timed_frames > 0 {
+            for _ in 0..settings.warm_up_frames {
+                let commands = self.frame_commands(&frame)?;
+                device.queue.submit(commands);
+                wait(&device.device)?;
+            }
+            // Frames are submitted back to back and waited for once, as an application's frames
+            // overlap: the time is throughput, not the latency of one frame plus a round trip.
+            let start = Instant::now();
+            for _ in 0..settings.timed_frames {
+                let commands = self.frame_commands(&frame)?;
+                device.queue.submit(commands);
+            }
             wait(&device.device)?;
+            ms_per_frame =
+                Some(start.elapsed().as_secs_f64() * 1e3 / f64::from(settings.timed_frames));
         }
-        // Frames are submitted back to back and waited for once, as an application's frames
-        // overlap: the time is throughput, not the latency of one frame plus a round trip.
-        let start = Instant::now();
-        for _ in 0..settings.timed_frames {
-            device.queue.submit(render_frame(&mut renderer)?);
+        if let Some(error) = block_on(scope.pop()) {
+            return Err(HeadlessError::Gpu(error.to_string()));
         }
-        wait(&device.device)?;
-        ms_per_frame = Some(start.elapsed().as_secs_f64() * 1e3 / f64::from(settings.timed_frames));
+        Ok(Rendered {
+            image,
+            ms_per_frame,
+            timed_frames: settings.timed_frames,
+        })
     }
-    if let Some(error) = block_on(scope.pop()) {
-        return Err(HeadlessError::Gpu(error.to_string()));
+
+    /// The frame's commands: the shadow pass (when a non-local term is on), then the pass.
+    fn frame_commands(
+        &mut self,
+        frame: &FrameDesc<'_>,
+    ) -> Result<Vec<wgpu::CommandBuffer>, HeadlessError> {
+        let device = self.device;
+        let mut commands = self
+            .renderer
+            .prepare(&device.device, &device.queue, frame)?;
+        let mut encoder = device
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("cdrf headless frame"),
+            });
+        {
+            let mut pass = self
+                .targets
+                .begin_pass(&mut encoder, wgpu::Color::TRANSPARENT);
+            self.renderer.render(&mut pass);
+        }
+        commands.push(encoder.finish());
+        Ok(commands)
     }
-    Ok(Rendered {
-        image,
-        ms_per_frame,
-        timed_frames: settings.timed_frames,
-    })
 }
 
 /// Near and far planes enclosing the drawn mesh, with a margin.
@@ -387,86 +468,6 @@ fn depth_range(scene: &Scene, assets: &SceneAssets, world_from_model: Mat4) -> (
             let far = (farthest + margin).max(1e-3);
             ((nearest - margin).max(far * 1e-4), far)
         }
-    }
-}
-
-/// Copies the resolved colour into a buffer to map.
-fn copy_to_buffer(
-    target: &OffscreenTarget,
-    device: &wgpu::Device,
-    encoder: &mut wgpu::CommandEncoder,
-) -> Readback {
-    let (width, height) = target.size();
-    let bytes_per_row = (width * 8).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("cdrf headless readback"),
-        size: u64::from(bytes_per_row) * u64::from(height),
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    encoder.copy_texture_to_buffer(
-        target.resolved().as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(bytes_per_row),
-                rows_per_image: Some(height),
-            },
-        },
-        wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        },
-    );
-    Readback {
-        buffer,
-        bytes_per_row,
-        width,
-        height,
-    }
-}
-
-struct Readback {
-    buffer: wgpu::Buffer,
-    bytes_per_row: u32,
-    width: u32,
-    height: u32,
-}
-
-impl Readback {
-    fn read(self, device: &wgpu::Device) -> Result<RgbaImage, HeadlessError> {
-        let (sender, receiver) = std::sync::mpsc::channel();
-        self.buffer
-            .map_async(wgpu::MapMode::Read, .., move |result| {
-                let _ = sender.send(result);
-            });
-        wait(device)?;
-        receiver
-            .recv()
-            .map_err(|_| HeadlessError::Gpu("readback never completed".into()))?
-            .map_err(|error| HeadlessError::Gpu(format!("mapping the readback buffer: {error}")))?;
-        let data = self
-            .buffer
-            .get_mapped_range(..)
-            .map_err(|error| HeadlessError::Gpu(format!("reading the readback buffer: {error}")))?;
-        let mut pixels = Vec::with_capacity((self.width * self.height) as usize);
-        for row in data.chunks_exact(self.bytes_per_row as usize) {
-            for texel in row[..self.width as usize * 8].chunks_exact(8) {
-                let channel = |i: usize| {
-                    f16_bits_to_f32(u16::from_ne_bytes([texel[2 * i], texel[2 * i + 1]]))
-                };
-                pixels.push([channel(0), channel(1), channel(2), channel(3)]);
-            }
-        }
-        drop(data);
-        self.buffer.unmap();
-        Ok(RgbaImage {
-            width: self.width,
-            height: self.height,
-            pixels,
-        })
     }
 }
 

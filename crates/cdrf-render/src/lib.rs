@@ -15,11 +15,10 @@
 //!
 //! ```
 //! use cdrf_core::glam::{self, Mat4, Vec3};
-//! use cdrf_core::scene::{DirectionalLight, NonLocal};
 //! use cdrf_core::{Mesh, mean_curvature_per_mm, CurvatureOptions};
 //! use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
-//! use cdrf_render::{wgpu, Draw, FrameDesc, MaterialDesc, MeshDesc, Options, Renderer,
-//!                   TargetDesc, ToCamera, View};
+//! use cdrf_render::{wgpu, DirectionalLight, Draw, FrameDesc, MaterialDesc, MeshDesc, NonLocal,
+//!                   Options, Renderer, TargetDesc, ToCamera, View};
 //!
 //! // The host's device (here a software one) and its colour target.
 //! let host = HeadlessDevice::new(AdapterPreference::Software)?;
@@ -30,7 +29,7 @@
 //! // A wax-like sphere of radius 20 mm (mesh units are mm).
 //! let sphere = Mesh::icosphere(20.0, 3);
 //! let curvature = mean_curvature_per_mm(&sphere, &CurvatureOptions::new(1.0))?;
-//! let mesh = renderer.create_mesh(device, &MeshDesc { mesh: &sphere, curvature_per_mm: &curvature })?;
+//! let mesh = renderer.create_mesh(device, &MeshDesc::from_mesh(&sphere, &curvature))?;
 //! let material = renderer.create_material(device, queue, &MaterialDesc::Lambert { albedo: [0.8; 3] })?;
 //!
 //! // Per frame: camera, lights, draws; then record into the host's pass.
@@ -97,18 +96,29 @@
 //! (LUT file format version 3, or 2 without the entry cosine); the Gaussian CDRF uses its σ as scattering length and has no
 //! T(d); Lambert gets hard shadows.
 
+mod error;
+mod frame;
 mod gpu_data;
+mod gpu_types;
 pub mod headless;
+mod material;
+mod mesh;
+mod non_local;
 pub mod offscreen;
+mod pipelines;
+pub mod readback;
 mod renderer;
+pub mod shaders;
 mod target;
 
+pub use cdrf_core::light::{DirectionalLight, NonLocal};
+pub use error::{MaterialError, MeshUploadError, PrepareError};
+pub use frame::{Draw, FrameDesc, ToCamera, View};
+pub use material::{MaterialDesc, MaterialId};
+pub use mesh::{MeshDesc, MeshId};
 pub use offscreen::OffscreenTarget;
-pub use renderer::{
-    Draw, FrameDesc, MAX_LIGHTS, MAX_SHADOW_LIGHTS, MaterialDesc, MaterialError, MaterialId,
-    MeshDesc, MeshId, MeshUploadError, PrepareError, Renderer, SHADER_SOURCE, SHADOW_SHADER_SOURCE,
-    ToCamera, View,
-};
+pub use renderer::Renderer;
+pub use shaders::{MAX_LIGHTS, MAX_SHADOW_LIGHTS};
 pub use target::{GaussianEvaluation, LutFiltering, Options, TargetDesc};
 /// The wgpu this crate is built against (use it to avoid version mismatches).
 pub use wgpu;

@@ -1,41 +1,21 @@
-//! Every WGSL shader in the workspace's `shaders/` folder parses and validates with naga (the
-//! shader compiler wgpu uses), without a GPU: shader errors show up in `cargo test` with naga's
-//! diagnostics instead of at pipeline creation.
+//! Every shader of the passes parses and validates with naga (the shader compiler wgpu uses),
+//! without a GPU, as the pipelines compile it (composed with the generated constants: see
+//! `cdrf_render::shaders`): shader errors show up in `cargo test` with naga's diagnostics
+//! instead of at pipeline creation.
 
 use std::path::{Path, PathBuf};
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 
-/// The workspace's shader folder.
-const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shaders");
+/// This crate's shader folder.
+const SHADER_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
 
-/// The `*.wgsl` files directly in `dir`, sorted.
-fn wgsl_files(dir: &Path) -> Vec<PathBuf> {
-    let entries = std::fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("cannot list shader folder {}: {e}", dir.display()));
-    let mut files: Vec<PathBuf> = entries
-        .map(|entry| entry.expect("shader folder entry").path())
-        .filter(|path| path.is_file() && path.extension().is_some_and(|ext| ext == "wgsl"))
-        .collect();
-    files.sort();
-    files
-}
-
-/// `shaders/NAME.wgsl`: how files are named in messages (relative to the workspace root).
-fn label(path: &Path) -> String {
-    let folder = path.parent().and_then(Path::file_name).unwrap_or_default();
-    let file = path.file_name().unwrap_or_default();
-    Path::new(folder).join(file).display().to_string()
-}
-
-/// Parses and validates one WGSL file; `Err` holds naga's diagnostics, naming the file.
-fn validate(path: &Path) -> Result<naga::Module, String> {
-    let name = label(path);
-    let source = std::fs::read_to_string(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
-    let module = naga::front::wgsl::parse_str(&source).map_err(|e| {
+/// Parses and validates one composed shader; `Err` holds naga's diagnostics, naming it.
+fn validate(name: &str, source: &str) -> Result<naga::Module, String> {
+    let module = naga::front::wgsl::parse_str(source).map_err(|e| {
         format!(
             "{name}: parse error\n{}",
-            e.emit_to_string_with_path(&source, &name)
+            e.emit_to_string_with_path(source, name)
         )
     })?;
     Validator::new(ValidationFlags::all(), Capabilities::default())
@@ -43,7 +23,7 @@ fn validate(path: &Path) -> Result<naga::Module, String> {
         .map_err(|e| {
             format!(
                 "{name}: validation error\n{}",
-                e.emit_to_string_with_path(&source, &name)
+                e.emit_to_string_with_path(source, name)
             )
         })?;
     if module.entry_points.is_empty() {
@@ -54,44 +34,62 @@ fn validate(path: &Path) -> Result<naga::Module, String> {
     Ok(module)
 }
 
-/// Checks every file, reporting all failures at once.
-fn validate_all(dir: &Path) {
-    let dir = dir
-        .canonicalize()
-        .unwrap_or_else(|e| panic!("shader folder {} is missing: {e}", dir.display()));
-    let files = wgsl_files(&dir);
-    assert!(
-        !files.is_empty(),
-        "no *.wgsl files in {}: the shader folder is missing or empty",
-        dir.display()
-    );
+/// The `*.wgsl` file names directly in `dir`, sorted.
+fn wgsl_files(dir: &Path) -> Vec<String> {
+    let entries = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("cannot list shader folder {}: {e}", dir.display()));
+    let mut files: Vec<String> = entries
+        .map(|entry| entry.expect("shader folder entry").path())
+        .filter(|path: &PathBuf| path.extension().is_some_and(|ext| ext == "wgsl"))
+        .map(|path| path.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn every_shader_parses_and_validates() {
+    let shaders = [
+        (
+            "shaders/cdrf.wgsl",
+            cdrf_render::shaders::shading_shader_source(),
+        ),
+        (
+            "shaders/shadow.wgsl",
+            cdrf_render::shaders::shadow_shader_source(),
+        ),
+    ];
     let mut failures = Vec::new();
-    for path in &files {
-        match validate(path) {
+    for (name, source) in &shaders {
+        match validate(name, source) {
             Ok(module) => {
                 let entry_points: Vec<String> = module
                     .entry_points
                     .iter()
                     .map(|ep| format!("{:?} {}", ep.stage, ep.name))
                     .collect();
-                println!("validated {}: {}", label(path), entry_points.join(", "));
+                println!("validated {name}: {}", entry_points.join(", "));
             }
-            Err(report) => {
-                println!("FAILED {}", label(path));
-                failures.push(report);
-            }
+            Err(report) => failures.push(report),
         }
     }
     assert!(
         failures.is_empty(),
         "{} of {} shader(s) failed:\n\n{}",
         failures.len(),
-        files.len(),
+        shaders.len(),
         failures.join("\n")
     );
 }
 
+/// Every WGSL file in the crate's folder is one the shaders above are composed of, so none is
+/// left out of validation.
 #[test]
-fn every_wgsl_shader_parses_and_validates() {
-    validate_all(Path::new(SHADER_DIR));
+fn the_shader_folder_holds_exactly_the_composed_files() {
+    assert_eq!(
+        wgsl_files(Path::new(SHADER_DIR)),
+        ["cdrf.wgsl", "common.wgsl", "shadow.wgsl"],
+        "a WGSL file was added to or removed from {SHADER_DIR}: compose it in src/shaders.rs \
+         and validate it here"
+    );
 }

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use cdrf_core::glam::{Mat3, Mat4, Vec2, Vec3};
-use cdrf_core::scene::{DirectionalLight, NonLocal};
+use cdrf_core::light::{DirectionalLight, NonLocal};
 use cdrf_core::{Cdrf, Filter};
 use cdrf_render::{MaterialDesc, MaterialId, MeshDesc, MeshId};
 use egui::{Color32, RichText};
@@ -306,10 +306,7 @@ impl ViewerApp {
             }
             gpu.renderer.create_mesh(
                 &device,
-                &MeshDesc {
-                    mesh: &mesh.mesh,
-                    curvature_per_mm: &mesh.curvature_per_unit,
-                },
+                &MeshDesc::from_mesh(&mesh.mesh, &mesh.curvature_per_unit),
             )
         });
         match uploaded {

@@ -6,8 +6,9 @@ use std::path::{Path, PathBuf};
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::gaussian_file::GaussianFileError;
 use cdrf_core::glam::Vec3;
+use cdrf_core::light::NonLocal;
 use cdrf_core::lut_file::LutFileError;
-use cdrf_core::scene::{NonLocal, Scene, SceneError};
+use cdrf_core::scene::{Scene, SceneError};
 use cdrf_core::{
     CdrfLut, CurvatureError, CurvatureOptions, GaussianParameters, LoadError, Mesh, ViewCorrection,
     mean_curvature_per_mm, read_gaussian, read_lut,

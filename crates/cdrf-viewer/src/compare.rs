@@ -34,10 +34,11 @@ use std::path::{Path, PathBuf};
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::{RgbaImage, linear_to_srgb};
-use cdrf_core::scene::{DirectionalLight, Material, NonLocal, Scene};
+use cdrf_core::light::{DirectionalLight, NonLocal};
+use cdrf_core::scene::{Material, Scene};
 use cdrf_core::{CdrfLut, ViewCorrection};
 use cdrf_render::Options;
-use cdrf_render::headless::{HeadlessDevice, RenderSettings, render_scene};
+use cdrf_render::headless::{HeadlessDevice, HeadlessError, RenderSettings, SceneRenderer};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -424,23 +425,41 @@ pub fn run_case(
     if let Some(rounds) = curvature_smoothing {
         scene.mesh.curvature_smoothing = rounds;
     }
-    let mut assets = scene.load_assets().map_err(|e| CompareError::File {
+    let assets = scene.load_assets().map_err(|e| CompareError::File {
         path: case.scene.clone(),
         message: e.to_string(),
     })?;
+    let Some(light) = scene.lights.first().copied() else {
+        return Err(case_error("the scene has no light".into()));
+    };
 
+    // One renderer for every model of the case: the mesh is uploaded and each pipeline built
+    // once.
     let settings = RenderSettings {
         options: Options::PREDICTABLE,
         ..RenderSettings::default()
     };
-    let mut render = |scene: &Scene, material: Material| {
-        assets.material = material;
-        render_scene(device, scene, &assets, &settings)
+    let render_error = |e: HeadlessError| CompareError::Render {
+        case: case.name.clone(),
+        message: e.to_string(),
+    };
+    let mut renderer =
+        SceneRenderer::new(device, &scene, &assets, &settings).map_err(render_error)?;
+    let mut add = |material: Material| renderer.add_material(&material).map_err(render_error);
+    let measured = add(Material::Measured(models.measured.clone()))?;
+    let gaussian = add(Material::Gaussian {
+        model: models.gaussian,
+        view_correction: models.view_correction.clone(),
+    })?;
+    let lambert = add(Material::Lambert {
+        albedo: models.lambert_albedo,
+    })?;
+    let white = add(Material::Lambert { albedo: [1.0; 3] })?;
+    let mut render = |material, lights: &[DirectionalLight], non_local| {
+        renderer
+            .render(material, lights, non_local)
             .map(|rendered| rendered.image)
-            .map_err(|e| CompareError::Render {
-                case: case.name.clone(),
-                message: e.to_string(),
-            })
+            .map_err(render_error)
     };
     let mut renders = Vec::with_capacity(ModelName::ALL.len());
     for model in ModelName::ALL {
@@ -448,35 +467,21 @@ pub fn run_case(
             ModelName::Measured
             | ModelName::MeasuredShadows
             | ModelName::MeasuredTransmission
-            | ModelName::MeasuredShadowsTransmission => Material::Measured(models.measured.clone()),
-            ModelName::Gaussian | ModelName::GaussianShadows => Material::Gaussian {
-                model: models.gaussian,
-                view_correction: models.view_correction.clone(),
-            },
-            ModelName::Lambert => Material::Lambert {
-                albedo: models.lambert_albedo,
-            },
+            | ModelName::MeasuredShadowsTransmission => measured,
+            ModelName::Gaussian | ModelName::GaussianShadows => gaussian,
+            ModelName::Lambert => lambert,
         };
-        let mut variant = scene.clone();
-        variant.non_local = model.non_local();
-        renders.push(render(&variant, material)?);
+        renders.push(render(material, &scene.lights, model.non_local())?);
     }
 
     // cos θ per pixel: a white Lambertian surface lit from the light and from the opposite
     // side gives max(cos θ, 0)/π and max(−cos θ, 0)/π.
-    let Some(light) = scene.lights.first().copied() else {
-        return Err(case_error("the scene has no light".into()));
-    };
-    let white = || Material::Lambert { albedo: [1.0; 3] };
-    let mut one_light = scene.clone();
-    one_light.non_local = NonLocal::OFF;
-    one_light.lights = vec![DirectionalLight {
-        to_light: light.to_light,
+    let unit = |to_light| DirectionalLight {
+        to_light,
         irradiance: [1.0; 3],
-    }];
-    let toward = render(&one_light, white())?;
-    one_light.lights[0].to_light = -light.to_light;
-    let away = render(&one_light, white())?;
+    };
+    let toward = render(white, &[unit(light.to_light)], NonLocal::OFF)?;
+    let away = render(white, &[unit(-light.to_light)], NonLocal::OFF)?;
     let cos_theta: Vec<f32> = toward
         .pixels
         .iter()

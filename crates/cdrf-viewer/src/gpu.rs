@@ -10,14 +10,14 @@
 //! texture lookup.
 
 use cdrf_core::glam::{Mat4, Vec2};
-use cdrf_core::scene::{DirectionalLight, NonLocal};
+use cdrf_core::light::{DirectionalLight, NonLocal};
 use cdrf_render::{
     Draw, FrameDesc, MaterialId, MeshId, OffscreenTarget, Options, Renderer, TargetDesc, View,
 };
 use egui_wgpu::{CallbackResources, CallbackTrait, ScreenDescriptor, wgpu};
 
 /// The composite shader.
-pub const COMPOSITE_SHADER: &str = include_str!("../../../shaders/viewer_composite.wgsl");
+pub const COMPOSITE_SHADER: &str = include_str!("../shaders/viewer_composite.wgsl");
 
 /// Colour format of the offscreen slots: linear radiance in half floats.
 pub const SLOT_COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;

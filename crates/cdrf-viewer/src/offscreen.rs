@@ -3,6 +3,7 @@
 
 use std::time::{Duration, Instant};
 
+use cdrf_render::readback::TextureReadback;
 use egui_wgpu::wgpu;
 use thiserror::Error;
 
@@ -197,51 +198,26 @@ impl OffscreenUi {
         }
         drop(renderer);
 
-        let bytes_per_row = (width * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("cdrf-viewer offscreen readback"),
-            size: u64::from(bytes_per_row) * u64::from(height),
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        encoder.copy_texture_to_buffer(
-            texture.as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(bytes_per_row),
-                    rows_per_image: Some(height),
-                },
-            },
-            texture.size(),
-        );
+        let readback = TextureReadback::record(device, &mut encoder, &texture)
+            .map_err(|error| OffscreenError::Gpu(error.to_string()))?;
         queue.submit(user_commands.into_iter().chain([encoder.finish()]));
-        buffer.map_async(wgpu::MapMode::Read, .., |_| {});
-        device
-            .poll(wgpu::PollType::wait_indefinitely())
+        let data = readback
+            .read(device)
             .map_err(|error| OffscreenError::Gpu(error.to_string()))?;
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(OffscreenError::Gpu(error.to_string()));
         }
-        let data = buffer
-            .get_mapped_range(..)
-            .map_err(|error| OffscreenError::Gpu(error.to_string()))?;
         let bgra = matches!(
             self.render_state.target_format,
             wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb
         );
         let mut pixels = Vec::with_capacity((width * height * 4) as usize);
-        for row in data.chunks_exact(bytes_per_row as usize) {
-            for texel in row[..(width * 4) as usize].chunks_exact(4) {
-                let [r, g, b, _] = [texel[0], texel[1], texel[2], texel[3]];
-                let (r, b) = if bgra { (b, r) } else { (r, b) };
-                // The UI is opaque; egui leaves alpha as its blending left it.
-                pixels.extend_from_slice(&[r, g, b, 255]);
-            }
+        for texel in data.chunks_exact(4) {
+            let [r, g, b, _] = [texel[0], texel[1], texel[2], texel[3]];
+            let (r, b) = if bgra { (b, r) } else { (r, b) };
+            // The UI is opaque; egui leaves alpha as its blending left it.
+            pixels.extend_from_slice(&[r, g, b, 255]);
         }
-        drop(data);
-        buffer.unmap();
         image::RgbaImage::from_raw(width, height, pixels)
             .ok_or_else(|| OffscreenError::Gpu("readback size mismatch".into()))
     }

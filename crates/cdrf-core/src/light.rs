@@ -1,0 +1,38 @@
+//! Lights and the non-local shading terms: the types a renderer takes per frame. Scene files
+//! ([`crate::scene`]) parse into them; `cdrf-render` re-exports them.
+
+use glam::Vec3;
+
+/// A directional light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectionalLight {
+    /// Unit vector toward the light, world space.
+    pub to_light: Vec3,
+    /// Irradiance on a surface facing the light, linear, per RGB channel.
+    pub irradiance: [f32; 3],
+}
+
+/// Which non-local terms a render adds to the CDRF (see [`crate::translucency`]). The default,
+/// both off, is the poster's local model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct NonLocal {
+    /// Translucent visibility: cast shadows from shadow maps, with a penumbra as wide as the
+    /// material's scattering length.
+    pub shadows: bool,
+    /// Transmission: light through parts thinner than the CDRF assumes, and (with `shadows`)
+    /// through occluders, by the material's T(d, μ).
+    pub transmission: bool,
+}
+
+impl NonLocal {
+    /// Neither term: the poster's local model.
+    pub const OFF: Self = Self {
+        shadows: false,
+        transmission: false,
+    };
+
+    /// Whether any term is on.
+    pub fn any(self) -> bool {
+        self.shadows || self.transmission
+    }
+}

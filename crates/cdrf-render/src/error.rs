@@ -1,0 +1,147 @@
+//! Why an upload or a frame failed.
+
+use cdrf_core::lut::LutError;
+use thiserror::Error;
+
+use crate::material::MaterialId;
+use crate::mesh::MeshId;
+use crate::shaders::MAX_LIGHTS;
+use crate::target::TargetDesc;
+
+/// Why a mesh could not be uploaded.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum MeshUploadError {
+    /// The mesh has no triangles.
+    #[error("the mesh has no triangles")]
+    Empty,
+    /// The index list is not whole triangles.
+    #[error("{count} indices: not a multiple of 3 (whole triangles)")]
+    IndexCount {
+        /// Indices given.
+        count: usize,
+    },
+    /// An index names a vertex that does not exist.
+    #[error("index {position} is {index}, but the mesh has {vertices} vertices")]
+    IndexOutOfRange {
+        /// Where in the index list.
+        position: usize,
+        /// The index.
+        index: u32,
+        /// Vertices in the mesh.
+        vertices: usize,
+    },
+    /// A per-vertex slice does not have one value per position.
+    #[error("{found} {what} for {vertices} vertices")]
+    AttributeCount {
+        /// `"normals"` or `"curvature values"`.
+        what: &'static str,
+        /// Values given.
+        found: usize,
+        /// Positions given.
+        vertices: usize,
+    },
+    /// A curvature value is NaN or infinite.
+    #[error("curvature of vertex {vertex} is {value}: must be finite")]
+    NonFiniteCurvature {
+        /// The vertex.
+        vertex: usize,
+        /// Its value.
+        value: f32,
+    },
+}
+
+/// Why a material could not be created.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum MaterialError {
+    /// Tabulating the Gaussian CDRF failed.
+    #[error("tabulating the Gaussian CDRF: {0}")]
+    Tabulate(#[from] LutError),
+    /// A parameter is out of range.
+    #[error("{what} = {value:?}: {requirement}")]
+    Parameter {
+        /// The parameter.
+        what: &'static str,
+        /// Its value.
+        value: Vec<f32>,
+        /// What it must be.
+        requirement: &'static str,
+    },
+    /// A table is larger than the device's largest 2D texture.
+    #[error("{what} is {width} × {height} texels; the device allows {max} per side")]
+    TooLarge {
+        /// Which table.
+        what: &'static str,
+        /// Columns.
+        width: usize,
+        /// Rows.
+        height: usize,
+        /// The device's limit.
+        max: u32,
+    },
+}
+
+/// Why a frame could not be prepared. Nothing is drawn until a `prepare` succeeds.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum PrepareError {
+    /// More lights than the shader holds.
+    #[error("{count} lights: at most {MAX_LIGHTS} per frame")]
+    TooManyLights {
+        /// Lights given.
+        count: usize,
+    },
+    /// A light's direction or irradiance is not usable.
+    #[error("light {index}: {problem}")]
+    BadLight {
+        /// The light.
+        index: usize,
+        /// What is wrong.
+        problem: &'static str,
+    },
+    /// A draw names a mesh that does not exist (never created, or removed).
+    #[error("draw {index}: unknown mesh {mesh:?}")]
+    UnknownMesh {
+        /// The draw.
+        index: usize,
+        /// Its mesh.
+        mesh: MeshId,
+    },
+    /// A draw names a material that does not exist.
+    #[error("draw {index}: unknown material {material:?}")]
+    UnknownMaterial {
+        /// The draw.
+        index: usize,
+        /// Its material.
+        material: MaterialId,
+    },
+    /// A draw's transform is singular, mirroring (negative determinant) or not finite.
+    #[error("draw {index}: the model transform is singular, mirroring or not finite")]
+    BadTransform {
+        /// The draw.
+        index: usize,
+    },
+    /// The view matrix, camera position or direction, or exposure is unusable.
+    #[error(
+        "the view matrix or camera position is not finite, the camera direction is zero, \
+         or the exposure is negative or not finite"
+    )]
+    BadView,
+    /// [`FrameDesc::mm_per_world_unit`](crate::FrameDesc::mm_per_world_unit) is not finite
+    /// and > 0.
+    #[error("mm per world unit = {mm_per_world_unit}: must be finite and > 0")]
+    BadUnits {
+        /// The value given.
+        mm_per_world_unit: f32,
+    },
+    /// The device refused the pipeline for the current target (an unsupported colour format,
+    /// sample count or depth format).
+    #[error("the device cannot render to {target:?}: {message}")]
+    Pipeline {
+        /// The target.
+        target: TargetDesc,
+        /// What wgpu said.
+        message: String,
+    },
+}

@@ -1,0 +1,74 @@
+//! What the host describes per frame: camera, lights, draws.
+
+use cdrf_core::glam::{Mat4, Vec3};
+use cdrf_core::light::{DirectionalLight, NonLocal};
+
+use crate::material::MaterialId;
+use crate::mesh::MeshId;
+
+/// Where the camera is, for the view angle φ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ToCamera {
+    /// A perspective camera at this world position.
+    Point(Vec3),
+    /// An orthographic camera: this unit vector points toward it.
+    Direction(Vec3),
+}
+
+/// The camera of a frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct View {
+    /// World → clip space (wgpu conventions: depth 0..1).
+    pub clip_from_world: Mat4,
+    /// The camera position or direction.
+    pub to_camera: ToCamera,
+}
+
+impl View {
+    /// The view of a scene-file camera, with the given near and far distances (world units).
+    pub fn from_camera(camera: &cdrf_core::scene::Camera, near: f32, far: f32) -> Self {
+        let to_camera = match camera.projection {
+            cdrf_core::scene::Projection::Orthographic { .. } => {
+                ToCamera::Direction((camera.eye - camera.target).normalize())
+            }
+            cdrf_core::scene::Projection::Perspective { .. } => ToCamera::Point(camera.eye),
+        };
+        Self {
+            clip_from_world: camera.clip_from_view(near, far) * camera.view_from_world(),
+            to_camera,
+        }
+    }
+}
+
+/// One object to draw: a mesh, a material and where it is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Draw {
+    /// The mesh.
+    pub mesh: MeshId,
+    /// How it is shaded.
+    pub material: MaterialId,
+    /// Model → world. Its scale (the cube root of the determinant, for a non-uniform scale)
+    /// divides the mesh's curvature.
+    pub world_from_model: Mat4,
+}
+
+/// Everything that changes per frame.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameDesc<'a> {
+    /// The camera.
+    pub view: View,
+    /// Directional lights (at most [`MAX_LIGHTS`](crate::MAX_LIGHTS)), irradiance in linear
+    /// units.
+    pub lights: &'a [DirectionalLight],
+    /// Multiplies the radiance (1 for physical output).
+    pub exposure: f32,
+    /// The objects, drawn in this order.
+    pub draws: &'a [Draw],
+    /// The non-local terms ([`NonLocal::OFF`]: the poster's local model). When any is on,
+    /// `prepare` renders a shadow map for each of the first
+    /// [`MAX_SHADOW_LIGHTS`](crate::MAX_SHADOW_LIGHTS) lights and returns its commands.
+    pub non_local: NonLocal,
+    /// Millimetres per world unit: turns shadow-map depths into the thicknesses T(d) and the
+    /// penumbra widths need (the scene file's `mm_per_unit`).
+    pub mm_per_world_unit: f32,
+}

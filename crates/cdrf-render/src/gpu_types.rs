@@ -1,0 +1,334 @@
+//! The data the shaders read, as `#[repr(C)]` structs of the same names and fields as the WGSL
+//! declarations (`shaders/common.wgsl`, `shaders/cdrf.wgsl`, `shaders/shadow.wgsl`). The unit
+//! test at the bottom holds every struct's size and field offsets against naga's reflection of
+//! the WGSL, so a field moved on one side only fails `cargo test`. Fields named `_pad*` are
+//! explicit padding to WGSL's alignment rules (vec3 and structs: 16 bytes).
+
+use bytemuck::{Pod, Zeroable};
+use cdrf_core::glam::{Mat4, Vec3};
+
+use crate::shaders::{MAX_LIGHTS, MAX_SHADOW_LIGHTS, PENUMBRA_TAPS};
+
+/// Name, size and named field offsets of a struct, for the layout test.
+#[cfg_attr(not(test), allow(dead_code))]
+pub(crate) struct StructLayout {
+    pub(crate) wgsl_name: &'static str,
+    pub(crate) size: usize,
+    pub(crate) fields: &'static [(&'static str, usize)],
+}
+
+/// Declares a GPU struct: `#[repr(C)]`, `Pod`, and its [`StructLayout`] as `LAYOUT`.
+macro_rules! gpu_struct {
+    ($(#[$meta:meta])* $name:ident as $wgsl:literal {
+        $($(#[$field_meta:meta])* $field:ident: $ty:ty,)*
+    }) => {
+        $(#[$meta])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, Pod, Zeroable)]
+        pub(crate) struct $name {
+            $($(#[$field_meta])* pub(crate) $field: $ty,)*
+        }
+
+        impl $name {
+            #[cfg_attr(not(test), allow(dead_code))]
+            pub(crate) const LAYOUT: StructLayout = StructLayout {
+                wgsl_name: $wgsl,
+                size: size_of::<$name>(),
+                fields: &[$((stringify!($field), std::mem::offset_of!($name, $field)),)*],
+            };
+        }
+    };
+}
+
+gpu_struct! {
+    /// One directional light (`Light`).
+    GpuLight as "Light" {
+        to_light: Vec3,
+        _pad0: f32,
+        irradiance: Vec3,
+        _pad1: f32,
+    }
+}
+
+gpu_struct! {
+    /// Camera and lights: bind group 0 (`Frame`).
+    GpuFrame as "Frame" {
+        clip_from_world: Mat4,
+        to_camera: Vec3,
+        camera_is_point: u32,
+        exposure: f32,
+        light_count: u32,
+        _pad0: [u32; 2],
+        lights: [GpuLight; MAX_LIGHTS],
+    }
+}
+
+gpu_struct! {
+    /// The Gaussian weight per channel of one penumbra tap (`PenumbraTap`).
+    GpuPenumbraTap as "PenumbraTap" {
+        weight: Vec3,
+        _pad0: f32,
+    }
+}
+
+gpu_struct! {
+    /// A material's parameters: bind group 1, binding 0 (`Material`).
+    GpuMaterial as "Material" {
+        albedo_or_scale: Vec3,
+        _pad0: f32,
+        sigma_mm: Vec3,
+        _pad1: f32,
+        lut_curvature_per_mm: [f32; 2],
+        lut_size: [f32; 2],
+        view_size: [f32; 2],
+        curvature_range_per_mm: [f32; 2],
+        scattering_length_mm: Vec3,
+        transmission_entry_cosine_power: f32,
+        transmission_amplitude: Vec3,
+        _pad2: f32,
+        transmission_length_mm: Vec3,
+        _pad3: f32,
+        penumbra_taps: [GpuPenumbraTap; PENUMBRA_TAPS],
+    }
+}
+
+gpu_struct! {
+    /// One draw's transforms: bind group 2 of the shading pass, 1 of the shadow pass (`Draw`).
+    GpuDraw as "Draw" {
+        world_from_model: Mat4,
+        normal_from_model: Mat4,
+        curvature_scale: f32,
+        _pad0: [f32; 3],
+    }
+}
+
+gpu_struct! {
+    /// One light's camera of the shadow maps (`ShadowLight`).
+    GpuShadowLight as "ShadowLight" {
+        light_from_world: Mat4,
+        half_extent: f32,
+        depth_range: f32,
+        _pad0: [f32; 2],
+    }
+}
+
+gpu_struct! {
+    /// The shadow maps' cameras and parameters: bind group 3, binding 0 (`Shadows`).
+    GpuShadows as "Shadows" {
+        lights: [GpuShadowLight; MAX_SHADOW_LIGHTS],
+        mm_per_world_unit: f32,
+        depth_bias_mm: f32,
+        resolution: u32,
+        light_count: u32,
+    }
+}
+
+gpu_struct! {
+    /// The shadow pass's per-light transform: its bind group 0 (`ShadowPass`).
+    GpuShadowPass as "ShadowPass" {
+        clip_from_world: Mat4,
+    }
+}
+
+gpu_struct! {
+    /// One vertex of a mesh (the shading shader's `VertexIn` locations 0–2).
+    GpuVertex as "VertexIn" {
+        position: Vec3,
+        normal: Vec3,
+        curvature_per_mm: f32,
+    }
+}
+
+impl GpuVertex {
+    /// The vertex buffer's attributes, from the struct's offsets.
+    pub(crate) const ATTRIBUTES: [wgpu::VertexAttribute; 3] = [
+        wgpu::VertexAttribute {
+            format: wgpu::VertexFormat::Float32x3,
+            offset: std::mem::offset_of!(GpuVertex, position) as u64,
+            shader_location: 0,
+        },
+        wgpu::VertexAttribute {
+            format: wgpu::VertexFormat::Float32x3,
+            offset: std::mem::offset_of!(GpuVertex, normal) as u64,
+            shader_location: 1,
+        },
+        wgpu::VertexAttribute {
+            format: wgpu::VertexFormat::Float32,
+            offset: std::mem::offset_of!(GpuVertex, curvature_per_mm) as u64,
+            shader_location: 2,
+        },
+    ];
+
+    /// Bytes per vertex.
+    pub(crate) const STRIDE: u64 = size_of::<GpuVertex>() as u64;
+}
+
+/// Size of a uniform struct, for bind group layouts' `min_binding_size`.
+pub(crate) const fn uniform_size<T>() -> std::num::NonZeroU64 {
+    match std::num::NonZeroU64::new(size_of::<T>() as u64) {
+        Some(size) => size,
+        None => panic!("a uniform struct has a size"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shaders::{shading_shader_source, shadow_shader_source};
+
+    /// The uniform structs, each declared in the shader(s) that read it.
+    const UNIFORMS: [StructLayout; 8] = [
+        GpuLight::LAYOUT,
+        GpuFrame::LAYOUT,
+        GpuPenumbraTap::LAYOUT,
+        GpuMaterial::LAYOUT,
+        GpuDraw::LAYOUT,
+        GpuShadowLight::LAYOUT,
+        GpuShadows::LAYOUT,
+        GpuShadowPass::LAYOUT,
+    ];
+
+    /// Differences between the Rust layouts and the WGSL module's structs of the same names
+    /// (every Rust layout whose struct the module declares; `required` must all be declared).
+    fn mismatches(source: &str, layouts: &[StructLayout], required: &[&str]) -> Vec<String> {
+        let module = naga::front::wgsl::parse_str(source).expect("WGSL parses");
+        let mut problems = Vec::new();
+        for name in required {
+            if !module
+                .types
+                .iter()
+                .any(|(_, ty)| ty.name.as_deref() == Some(name))
+            {
+                problems.push(format!("struct {name} is not declared in the WGSL"));
+            }
+        }
+        for layout in layouts {
+            let Some((_, ty)) = module
+                .types
+                .iter()
+                .find(|(_, ty)| ty.name.as_deref() == Some(layout.wgsl_name))
+            else {
+                continue;
+            };
+            let naga::TypeInner::Struct { members, span } = &ty.inner else {
+                problems.push(format!("{} is not a struct in the WGSL", layout.wgsl_name));
+                continue;
+            };
+            if *span as usize != layout.size {
+                problems.push(format!(
+                    "{}: WGSL size {span}, Rust size {}",
+                    layout.wgsl_name, layout.size
+                ));
+            }
+            let rust: Vec<(&str, usize)> = layout
+                .fields
+                .iter()
+                .copied()
+                .filter(|(name, _)| !name.starts_with("_pad"))
+                .collect();
+            let wgsl: Vec<(&str, usize)> = members
+                .iter()
+                .map(|m| (m.name.as_deref().unwrap_or("?"), m.offset as usize))
+                .collect();
+            if rust != wgsl {
+                problems.push(format!(
+                    "{}: WGSL fields {wgsl:?}, Rust fields {rust:?}",
+                    layout.wgsl_name
+                ));
+            }
+        }
+        problems
+    }
+
+    #[test]
+    fn uniform_structs_match_the_wgsl() {
+        let shading = mismatches(
+            &shading_shader_source(),
+            &UNIFORMS,
+            &[
+                "Light",
+                "Frame",
+                "PenumbraTap",
+                "Material",
+                "Draw",
+                "ShadowLight",
+                "Shadows",
+            ],
+        );
+        let shadow = mismatches(&shadow_shader_source(), &UNIFORMS, &["Draw", "ShadowPass"]);
+        let problems: Vec<String> = shading.into_iter().chain(shadow).collect();
+        assert!(
+            problems.is_empty(),
+            "layout mismatches:\n{}",
+            problems.join("\n")
+        );
+    }
+
+    /// The check is not vacuous: a field inserted on the WGSL side only shifts the later ones,
+    /// and a field renamed or retyped is caught.
+    #[test]
+    fn a_shifted_wgsl_field_is_caught() {
+        let source = shading_shader_source();
+        let shifted = source.replace(
+            "    camera_is_point: u32,\n",
+            "    camera_is_point: u32,\n    inserted: f32,\n",
+        );
+        assert_ne!(
+            shifted, source,
+            "the Frame declaration changed; update this test"
+        );
+        let problems = mismatches(&shifted, &UNIFORMS, &[]);
+        println!("{}", problems.join("\n"));
+        assert!(
+            problems.iter().any(|p| p.starts_with("Frame:")),
+            "{problems:?}"
+        );
+
+        let retyped = source.replace(
+            "    depth_bias_mm: f32,\n",
+            "    depth_bias_mm: vec2<f32>,\n",
+        );
+        assert_ne!(
+            retyped, source,
+            "the Shadows declaration changed; update this test"
+        );
+        let problems = mismatches(&retyped, &UNIFORMS, &[]);
+        assert!(
+            problems.iter().any(|p| p.starts_with("Shadows:")),
+            "{problems:?}"
+        );
+    }
+
+    /// The vertex attributes the pipelines declare are the shader's `VertexIn` locations.
+    #[test]
+    fn vertex_attributes_match_the_wgsl() {
+        let module = naga::front::wgsl::parse_str(&shading_shader_source()).expect("parses");
+        let (_, ty) = module
+            .types
+            .iter()
+            .find(|(_, ty)| ty.name.as_deref() == Some("VertexIn"))
+            .expect("VertexIn declared");
+        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+            panic!("VertexIn is a struct");
+        };
+        let mut locations = Vec::new();
+        for member in members {
+            if let Some(naga::Binding::Location { location, .. }) = member.binding {
+                locations.push((member.name.clone().unwrap_or_default(), location));
+            }
+        }
+        let names = ["position", "normal", "curvature_per_mm"];
+        let expected: Vec<(String, u32)> = GpuVertex::ATTRIBUTES
+            .iter()
+            .zip(names)
+            .map(|(attribute, name)| (name.to_string(), attribute.shader_location))
+            .collect();
+        assert_eq!(locations, expected);
+        let fields: Vec<usize> = GpuVertex::LAYOUT.fields.iter().map(|f| f.1).collect();
+        let offsets: Vec<usize> = GpuVertex::ATTRIBUTES
+            .iter()
+            .map(|a| a.offset as usize)
+            .collect();
+        assert_eq!(fields, offsets);
+    }
+}

@@ -1,0 +1,320 @@
+//! Materials on the GPU: the shading model, its tables as textures and its parameters.
+
+use cdrf_core::gaussian::GaussianCdrf;
+use cdrf_core::glam::Vec3;
+use cdrf_core::{CdrfLut, CurvatureAxis, ViewCorrection};
+use wgpu::util::DeviceExt;
+
+use crate::error::MaterialError;
+use crate::gpu_data::rgba16f_texels;
+use crate::gpu_types::{GpuMaterial, GpuPenumbraTap, uniform_size};
+use crate::shaders::{Model, PENUMBRA_TAPS};
+use crate::target::{GaussianEvaluation, Options};
+
+/// A material uploaded with [`Renderer::create_material`](crate::Renderer::create_material).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MaterialId(pub(crate) u64);
+
+/// How a material shades: the shading model and its data.
+#[derive(Clone, Copy, Debug)]
+pub enum MaterialDesc<'a> {
+    /// The measured CDRF: `LUT(κ, θ) · g(θ, φ)` from a table (cdrf-fit's `measured.exr`).
+    Measured {
+        /// The table with its view correction.
+        lut: &'a CdrfLut,
+    },
+    /// Kubo's Gaussian CDRF with a view correction (evaluated as [`Options::gaussian`] says).
+    Gaussian {
+        /// σ and scale per channel.
+        model: &'a GaussianCdrf,
+        /// g(θ, φ), usually the one of the measured table fitted from the same photographs.
+        view_correction: &'a ViewCorrection,
+    },
+    /// Lambert: `π·L/E = albedo · max(cos θ, 0)`, no view dependence.
+    Lambert {
+        /// Albedo per RGB channel.
+        albedo: [f32; 3],
+    },
+    /// Debug view: the curvature colour-mapped (cool–warm) from `range_per_mm[0]` (blue) to
+    /// `range_per_mm[1]` (red); not radiance.
+    Curvature {
+        /// κ at the colour map's ends, mm⁻¹.
+        range_per_mm: [f32; 2],
+    },
+}
+
+/// A material's model and bind group (group 1).
+pub(crate) struct GpuMaterialEntry {
+    pub(crate) model: Model,
+    pub(crate) bind_group: wgpu::BindGroup,
+}
+
+/// What every material's bind group is made with.
+pub(crate) struct MaterialFactory {
+    pub(crate) layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
+    max_texture_side: u32,
+}
+
+impl MaterialFactory {
+    pub(crate) fn new(device: &wgpu::Device) -> Self {
+        let texture = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
+            count: None,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cdrf material layout"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: Some(uniform_size::<GpuMaterial>()),
+                    },
+                    count: None,
+                },
+                texture(1),
+                texture(2),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("cdrf lut sampler"),
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        Self {
+            layout,
+            sampler,
+            max_texture_side: device.limits().max_texture_dimension_2d,
+        }
+    }
+
+    /// Uploads a material: its table(s) as `Rgba16Float` textures and its parameters.
+    pub(crate) fn create(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        options: &Options,
+        desc: &MaterialDesc<'_>,
+    ) -> Result<GpuMaterialEntry, MaterialError> {
+        let identity = ViewCorrection::identity();
+        let mut uniforms = GpuMaterial {
+            albedo_or_scale: Vec3::ONE,
+            transmission_length_mm: Vec3::ONE,
+            ..bytemuck::Zeroable::zeroed()
+        };
+        let tabulated;
+        let (model, lut, view) = match *desc {
+            MaterialDesc::Measured { lut } => {
+                // Non-local terms: penumbra width and T(d, μ) (none: a hard edge and no
+                // transmission).
+                if let Some(translucency) = lut.translucency() {
+                    uniforms.scattering_length_mm =
+                        Vec3::from_array(translucency.scattering_length_mm);
+                    let transmission = translucency.transmission;
+                    uniforms.transmission_amplitude = Vec3::from_array(transmission.amplitude);
+                    uniforms.transmission_entry_cosine_power = transmission.entry_cosine_power;
+                    uniforms.transmission_length_mm = Vec3::from_array(transmission.length_mm);
+                }
+                (Model::Measured, Some(lut), lut.view_correction())
+            }
+            MaterialDesc::Gaussian {
+                model,
+                view_correction,
+            } => {
+                // Kubo's σ is the terminator's width in mm: the same sideways spread.
+                uniforms.scattering_length_mm = Vec3::from_array(model.sigma_mm());
+                match options.gaussian {
+                    GaussianEvaluation::Lut => {
+                        tabulated = tabulate_gaussian(model, options)?;
+                        (Model::GaussianLut, Some(&tabulated), view_correction)
+                    }
+                    GaussianEvaluation::Analytic => {
+                        uniforms.sigma_mm = Vec3::from_array(model.sigma_mm());
+                        uniforms.albedo_or_scale = Vec3::from_array(model.scale());
+                        (Model::GaussianAnalytic, None, view_correction)
+                    }
+                }
+            }
+            MaterialDesc::Lambert { albedo } => {
+                check_finite_non_negative("albedo", &albedo)?;
+                uniforms.albedo_or_scale = Vec3::from_array(albedo);
+                (Model::Lambert, None, &identity)
+            }
+            MaterialDesc::Curvature { range_per_mm } => {
+                let [low, high] = range_per_mm;
+                if !(low.is_finite() && high.is_finite() && high > low) {
+                    return Err(MaterialError::Parameter {
+                        what: "curvature range (mm⁻¹)",
+                        value: range_per_mm.to_vec(),
+                        requirement: "must be finite with low < high",
+                    });
+                }
+                uniforms.curvature_range_per_mm = range_per_mm;
+                (Model::Curvature, None, &identity)
+            }
+        };
+        uniforms.penumbra_taps = penumbra_taps(uniforms.scattering_length_mm);
+
+        let lut_texture = match lut {
+            Some(lut) => {
+                let axis = lut.curvature_axis();
+                uniforms.lut_curvature_per_mm = [axis.min_per_mm, axis.max_per_mm];
+                uniforms.lut_size = [lut.theta_count() as f32, axis.count as f32];
+                self.upload_table(
+                    device,
+                    queue,
+                    "cdrf lut",
+                    lut.theta_count(),
+                    axis.count,
+                    lut.radiance(),
+                )?
+            }
+            None => {
+                uniforms.lut_size = [1.0, 1.0];
+                self.upload_table(device, queue, "cdrf lut (unused)", 1, 1, &[Vec3::ONE])?
+            }
+        };
+        let view_texture = self.upload_table(
+            device,
+            queue,
+            "cdrf view correction",
+            view.phi_count(),
+            view.theta_count(),
+            view.values(),
+        )?;
+        uniforms.view_size = [view.phi_count() as f32, view.theta_count() as f32];
+
+        let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("cdrf material uniforms"),
+            contents: bytemuck::bytes_of(&uniforms),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let lut_view = lut_texture.create_view(&Default::default());
+        let view_view = view_texture.create_view(&Default::default());
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("cdrf material"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&lut_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&view_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::Sampler(&self.sampler),
+                },
+            ],
+        });
+        Ok(GpuMaterialEntry { model, bind_group })
+    }
+
+    fn upload_table(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        label: &'static str,
+        width: usize,
+        height: usize,
+        values: &[Vec3],
+    ) -> Result<wgpu::Texture, MaterialError> {
+        let max = self.max_texture_side;
+        if width > max as usize || height > max as usize {
+            return Err(MaterialError::TooLarge {
+                what: label,
+                width,
+                height,
+                max,
+            });
+        }
+        Ok(device.create_texture_with_data(
+            queue,
+            &wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width: width as u32,
+                    height: height as u32,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba16Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            &rgba16f_texels(values),
+        ))
+    }
+}
+
+/// The Gaussian CDRF as a table (a few milliseconds), on the axes [`Options`] gives.
+fn tabulate_gaussian(model: &GaussianCdrf, options: &Options) -> Result<CdrfLut, MaterialError> {
+    let axis = CurvatureAxis {
+        min_per_mm: 0.0,
+        max_per_mm: options.gaussian_lut_max_curvature_per_mm,
+        count: options.gaussian_lut_rows as usize,
+    };
+    Ok(CdrfLut::tabulate(
+        model,
+        axis,
+        options.gaussian_lut_columns as usize,
+    )?)
+}
+
+fn check_finite_non_negative(what: &'static str, values: &[f32]) -> Result<(), MaterialError> {
+    if values.iter().all(|v| v.is_finite() && *v >= 0.0) {
+        Ok(())
+    } else {
+        Err(MaterialError::Parameter {
+            what,
+            value: values.to_vec(),
+            requirement: "must be finite and ≥ 0",
+        })
+    }
+}
+
+/// The Gaussian weight per channel of each penumbra tap: tap k lies at radius
+/// `2·σ_max·√(k / PENUMBRA_TAPS)` on the surface (a Vogel spiral, see the shader).
+fn penumbra_taps(sigma_mm: Vec3) -> [GpuPenumbraTap; PENUMBRA_TAPS] {
+    let sigma_max = sigma_mm.max_element();
+    std::array::from_fn(|k| {
+        let weight = if sigma_max <= 0.0 {
+            Vec3::ONE
+        } else {
+            let radius_squared = 4.0 * sigma_max * sigma_max * k as f32 / PENUMBRA_TAPS as f32;
+            Vec3::from_array(
+                sigma_mm
+                    .to_array()
+                    .map(|sigma| (-0.5 * radius_squared / (sigma * sigma).max(1e-12)).exp()),
+            )
+        };
+        GpuPenumbraTap { weight, _pad0: 0.0 }
+    })
+}

@@ -1,0 +1,143 @@
+//! Meshes on the GPU: what the host hands over and what the renderer keeps.
+
+use cdrf_core::Mesh;
+use cdrf_core::glam::Vec3;
+use wgpu::util::DeviceExt;
+
+use crate::error::MeshUploadError;
+use crate::gpu_types::GpuVertex;
+
+/// A mesh uploaded with [`Renderer::create_mesh`](crate::Renderer::create_mesh).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MeshId(pub(crate) u64);
+
+/// A mesh to upload, as slices of the host's own vertex data: triangles with per-vertex
+/// normals and mean curvature. [`MeshDesc::from_mesh`] builds one from a
+/// [`cdrf_core::Mesh`].
+#[derive(Clone, Copy, Debug)]
+pub struct MeshDesc<'a> {
+    /// Vertex positions, model units.
+    pub positions: &'a [Vec3],
+    /// Unit normals, one per position.
+    pub normals: &'a [Vec3],
+    /// Signed mean curvature per vertex in mm⁻¹, of the mesh as it is in model units (e.g.
+    /// `cdrf_core::mean_curvature_per_mm` with the mesh's mm-per-unit). A draw's model
+    /// transform rescales it: an object drawn twice as large has half the curvature.
+    pub curvature_per_mm: &'a [f32],
+    /// Triangles: three indices into the vertices each, counter-clockwise seen from outside.
+    pub indices: &'a [u32],
+}
+
+impl<'a> MeshDesc<'a> {
+    /// The slices of a [`cdrf_core::Mesh`] and its per-vertex curvature.
+    pub fn from_mesh(mesh: &'a Mesh, curvature_per_mm: &'a [f32]) -> Self {
+        Self {
+            positions: &mesh.positions,
+            normals: &mesh.normals,
+            curvature_per_mm,
+            indices: mesh.triangles.as_flattened(),
+        }
+    }
+
+    fn validate(&self) -> Result<(), MeshUploadError> {
+        let vertices = self.positions.len();
+        if self.indices.is_empty() {
+            return Err(MeshUploadError::Empty);
+        }
+        if !self.indices.len().is_multiple_of(3) {
+            return Err(MeshUploadError::IndexCount {
+                count: self.indices.len(),
+            });
+        }
+        for (what, found) in [
+            ("normals", self.normals.len()),
+            ("curvature values", self.curvature_per_mm.len()),
+        ] {
+            if found != vertices {
+                return Err(MeshUploadError::AttributeCount {
+                    what,
+                    found,
+                    vertices,
+                });
+            }
+        }
+        if let Some((position, &index)) = self
+            .indices
+            .iter()
+            .enumerate()
+            .find(|(_, i)| **i as usize >= vertices)
+        {
+            return Err(MeshUploadError::IndexOutOfRange {
+                position,
+                index,
+                vertices,
+            });
+        }
+        if let Some((vertex, &value)) = self
+            .curvature_per_mm
+            .iter()
+            .enumerate()
+            .find(|(_, k)| !k.is_finite())
+        {
+            return Err(MeshUploadError::NonFiniteCurvature { vertex, value });
+        }
+        Ok(())
+    }
+}
+
+/// A mesh's buffers and bounds.
+pub(crate) struct GpuMesh {
+    pub(crate) vertices: wgpu::Buffer,
+    pub(crate) indices: wgpu::Buffer,
+    pub(crate) index_count: u32,
+    /// Bounding sphere in model units: centre and radius.
+    pub(crate) bounds: (Vec3, f32),
+}
+
+impl GpuMesh {
+    pub(crate) fn upload(
+        device: &wgpu::Device,
+        desc: &MeshDesc<'_>,
+    ) -> Result<Self, MeshUploadError> {
+        desc.validate()?;
+        let vertices: Vec<GpuVertex> = desc
+            .positions
+            .iter()
+            .zip(desc.normals)
+            .zip(desc.curvature_per_mm)
+            .map(|((&position, &normal), &curvature_per_mm)| GpuVertex {
+                position,
+                normal,
+                curvature_per_mm,
+            })
+            .collect();
+        Ok(Self {
+            vertices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("cdrf mesh vertices"),
+                contents: bytemuck::cast_slice(&vertices),
+                usage: wgpu::BufferUsages::VERTEX,
+            }),
+            indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("cdrf mesh indices"),
+                contents: bytemuck::cast_slice(desc.indices),
+                usage: wgpu::BufferUsages::INDEX,
+            }),
+            index_count: desc.indices.len() as u32,
+            bounds: bounding_sphere(desc.positions),
+        })
+    }
+}
+
+/// A bounding sphere of `positions` (the box's centre and the farthest point from it).
+fn bounding_sphere(positions: &[Vec3]) -> (Vec3, f32) {
+    let (min, max) = positions.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+    );
+    let centre = (min + max) * 0.5;
+    let radius = positions
+        .iter()
+        .map(|p| p.distance(centre))
+        .fold(0.0, f32::max);
+    (centre, radius)
+}

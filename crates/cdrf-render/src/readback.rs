@@ -1,0 +1,130 @@
+//! Reading a texture back to the CPU: the one implementation the headless renders, the viewer's
+//! screenshots and the tests share.
+
+use thiserror::Error;
+
+/// Why a read-back failed.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum ReadbackError {
+    /// The format has no fixed texel size (compressed, or depth/stencil).
+    #[error("cannot read back {format:?} textures")]
+    Format {
+        /// The texture's format.
+        format: wgpu::TextureFormat,
+    },
+    /// Mapping the buffer failed (e.g. out of memory for a large image).
+    #[error("mapping the {width} × {height} read-back buffer: {message}")]
+    Map {
+        /// Texels per row.
+        width: u32,
+        /// Rows.
+        height: u32,
+        /// What wgpu said.
+        message: String,
+    },
+    /// Waiting for the GPU failed.
+    #[error("waiting for the GPU: {0}")]
+    Poll(#[from] wgpu::PollError),
+}
+
+/// A copy of a texture's first mip level and layer on its way into a mappable buffer: record it
+/// with [`TextureReadback::record`], submit the encoder, then [`TextureReadback::read`].
+pub struct TextureReadback {
+    buffer: wgpu::Buffer,
+    padded_bytes_per_row: u32,
+    bytes_per_row: u32,
+    width: u32,
+    height: u32,
+}
+
+impl TextureReadback {
+    /// Records the copy of `texture` (usage `COPY_SRC`) into `encoder`.
+    ///
+    /// # Errors
+    /// [`ReadbackError::Format`] for a format without a fixed texel size.
+    pub fn record(
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        texture: &wgpu::Texture,
+    ) -> Result<Self, ReadbackError> {
+        let format = texture.format();
+        let texel_bytes = format
+            .block_copy_size(None)
+            .filter(|_| format.block_dimensions() == (1, 1))
+            .ok_or(ReadbackError::Format { format })?;
+        let (width, height) = (texture.width(), texture.height());
+        let bytes_per_row = width * texel_bytes;
+        let padded_bytes_per_row =
+            bytes_per_row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cdrf readback"),
+            size: u64::from(padded_bytes_per_row) * u64::from(height),
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        encoder.copy_texture_to_buffer(
+            texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded_bytes_per_row),
+                    rows_per_image: Some(height),
+                },
+            },
+            wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+        );
+        Ok(Self {
+            buffer,
+            padded_bytes_per_row,
+            bytes_per_row,
+            width,
+            height,
+        })
+    }
+
+    /// Texels per row and rows.
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// Waits for the GPU (the encoder holding the copy must have been submitted) and returns
+    /// the texels row by row, top row first, without row padding, in the texture's own byte
+    /// layout.
+    ///
+    /// # Errors
+    /// [`ReadbackError::Map`] or [`ReadbackError::Poll`].
+    pub fn read(self, device: &wgpu::Device) -> Result<Vec<u8>, ReadbackError> {
+        let (sender, receiver) = std::sync::mpsc::channel();
+        self.buffer
+            .map_async(wgpu::MapMode::Read, .., move |result| {
+                let _ = sender.send(result);
+            });
+        device.poll(wgpu::PollType::wait_indefinitely())?;
+        let map_error = |message: String| ReadbackError::Map {
+            width: self.width,
+            height: self.height,
+            message,
+        };
+        receiver
+            .recv()
+            .map_err(|_| map_error("the mapping never completed".into()))?
+            .map_err(|error| map_error(error.to_string()))?;
+        let data = self
+            .buffer
+            .get_mapped_range(..)
+            .map_err(|error| map_error(error.to_string()))?;
+        let mut texels = Vec::with_capacity((self.bytes_per_row * self.height) as usize);
+        for row in data.chunks_exact(self.padded_bytes_per_row as usize) {
+            texels.extend_from_slice(&row[..self.bytes_per_row as usize]);
+        }
+        drop(data);
+        self.buffer.unmap();
+        Ok(texels)
+    }
+}
