@@ -5,7 +5,7 @@
 # driver (lavapipe) for the GPU tests, a virtual X server (xvfb, xauth) and the X libraries winit
 # loads for the viewer's windowed test, a C++ compiler for crates that build C++ — using sudo
 # only when not root. Then: format check, clippy with warnings as errors, every test (unit,
-# integration, CLI, doc tests), and the docs build.
+# integration, CLI, doc tests), packaging of the four crates, and the docs build.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -60,6 +60,20 @@ cargo clippy --workspace --all-targets --locked -- -D warnings
 section "cargo test"
 # --show-output prints the figures tests measure (curvature errors, spline overshoot, ...).
 cargo test --workspace --locked -- --show-output
+
+section "cargo package (the four crates package on their own)"
+# --no-verify: packaging checks that each crate's manifest, metadata and files stand alone; the
+# verify build would rebuild every dependency outside this workspace's profiles (minutes).
+cargo package --workspace --exclude cdrf-tests --no-verify --locked --allow-dirty --quiet
+for crate in cdrf-core cdrf-fit cdrf-render cdrf-viewer; do
+  listing="$(cargo package -p "$crate" --list --locked --allow-dirty 2>/dev/null)"
+  # Test data and the bundled photographs stay out of the packages.
+  if grep -qE '(^|/)(tests|data)/|\.(exr|png|obj|glb)$' <<<"$listing"; then
+    echo "error: the $crate package includes test data:" >&2
+    grep -E '(^|/)(tests|data)/|\.(exr|png|obj|glb)$' <<<"$listing" >&2
+    exit 1
+  fi
+done
 
 section "cargo doc"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked --quiet
