@@ -12,18 +12,19 @@
 //! - **Pixels compared**: those the render covers fully (4× MSAA coverage = 1) with every
 //!   neighbour within [`ERODE_PX`] pixels covered too — the silhouette eroded by 2 px, so edge
 //!   pixels (partial coverage, sub-pixel silhouette differences) never count.
-//! - **Regions** by θ, the angle between normal and light, from two extra Lambert renders
-//!   (light and opposite light: cos θ = L₊ − L₋ per pixel, as the renderer interpolates normals):
-//!   lit side cos θ ≥ 0.26 (θ ≤ 75°), terminator band |cos θ| < 0.26, shadow side cos θ ≤ −0.26;
-//!   and the *cast shadow*: points facing the light (cos θ > 0) that another part of the object
-//!   hides from it ([`cast_shadow`], a CPU shadow map), taken out of the lit side and the
-//!   terminator band — light that no local model can know is missing.
-//! - **Radiance errors** on 8 × 8-pixel blocks (the references' per-pixel noise is 7 % lit to
-//!   tens of per cent in shadow; a block averages 64 pixels) that lie wholly in the compared
-//!   pixels, assigned to a region by their mean cos θ: *relative RMSE* =
-//!   √(Σ|R − T|²) / √(Σ T²) and *mean relative error* = Σ|R − T| / Σ T, both over blocks and
-//!   channels (T the reference, R the render). Ratios of sums, not means of ratios: a block in
-//!   a cast shadow (T ≈ 0) weighs by its radiance instead of dividing by nearly zero.
+//! - **Regions** ([`Region`]) by θ, the angle between normal and light, from two extra Lambert
+//!   renders (light and opposite light: cos θ = L₊ − L₋ per pixel, as the renderer interpolates
+//!   normals): lit side cos θ ≥ 0.26 (θ ≤ 75°), terminator band |cos θ| < 0.26, shadow side
+//!   cos θ ≤ −0.26; and the *cast shadow*: points facing the light (cos θ > 0) that another part
+//!   of the object hides from it ([`cast_shadow`], a CPU shadow map), taken out of the lit side
+//!   and the terminator band — light that no local model can know is missing.
+//! - **Radiance errors**: cdrf's one block metric, [`cdrf_core::block_error`] — 8 × 8-pixel
+//!   blocks (the references' per-pixel noise is 7 % lit to tens of per cent in shadow; a block
+//!   averages 64 pixels) that lie wholly in the compared pixels, assigned to a region by their
+//!   mean cos θ and cast-shadow fraction: *relative RMSE* = √(Σ|R − T|²) / √(Σ T²) and *mean
+//!   relative error* = Σ|R − T| / Σ T, both over blocks and channels (T the reference, R the
+//!   render). Ratios of sums, not means of ratios: a block in a cast shadow (T ≈ 0) weighs by
+//!   its radiance instead of dividing by nearly zero.
 //! - **FLIP** (NVIDIA FLIP, 67 px/°) between the tone-mapped images (both × the exposure that
 //!   puts the reference's 99th-percentile luminance at 0.9, clamped, sRGB), averaged over the
 //!   compared pixels of each region.
@@ -31,6 +32,7 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use cdrf_core::block_error::{self, Block, BlockPixel};
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::{RgbaImage, linear_to_srgb};
@@ -43,12 +45,18 @@ use thiserror::Error;
 
 use crate::assets::{FIT_GAUSSIAN_FILE, FIT_LUT_FILE, LoadedGaussian, LoadedLut};
 
+pub use cdrf_core::block_error::{BLOCK_PX, Region, TERMINATOR_COS};
+
 /// Pixels eroded from the render's silhouette before comparing.
-pub const ERODE_PX: i32 = 2;
-/// Side of the blocks radiance errors are computed on, pixels.
-pub const BLOCK_PX: u32 = 8;
-/// |cos θ| below which a block or pixel is in the terminator band (θ within 75°…105°).
-pub const TERMINATOR_COS: f32 = 0.26;
+pub const ERODE_PX: u32 = 2;
+/// The regions of the tables, in table order.
+pub const REGIONS: [Region; 5] = [
+    Region::Whole,
+    Region::Lit,
+    Region::Terminator,
+    Region::Shadow,
+    Region::CastShadow,
+];
 
 /// Why a comparison could not run.
 #[derive(Debug, Error)]
@@ -227,61 +235,6 @@ impl ModelName {
 impl fmt::Display for ModelName {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.short_label())
-    }
-}
-
-/// A region of the object.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Region {
-    /// Every compared pixel.
-    Whole,
-    /// cos θ ≥ [`TERMINATOR_COS`].
-    Lit,
-    /// |cos θ| < [`TERMINATOR_COS`].
-    Terminator,
-    /// cos θ ≤ −[`TERMINATOR_COS`].
-    Shadow,
-    /// Facing the light (cos θ > 0) but hidden from it by another part of the object: light no
-    /// local model (no CDRF) knows is missing. Excluded from the lit side and the terminator
-    /// band.
-    CastShadow,
-}
-
-impl Region {
-    /// All four, in table order.
-    pub const ALL: [Region; 5] = [
-        Region::Whole,
-        Region::Lit,
-        Region::Terminator,
-        Region::Shadow,
-        Region::CastShadow,
-    ];
-
-    /// Whether a pixel or block with mean `cos_theta` and `occluded` (the fraction of it in a
-    /// cast shadow, 0 or 1 for a pixel) belongs to the region; a block counts as cast shadow
-    /// when most of it is.
-    fn contains(self, cos_theta: f32, occluded: f32) -> bool {
-        let cast = occluded > 0.5 && cos_theta > 0.0;
-        match self {
-            Region::Whole => true,
-            Region::Lit => cos_theta >= TERMINATOR_COS && !cast,
-            Region::Terminator => cos_theta.abs() < TERMINATOR_COS && !cast,
-            Region::Shadow => cos_theta <= -TERMINATOR_COS,
-            Region::CastShadow => cast,
-        }
-    }
-}
-
-impl fmt::Display for Region {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Region::Whole => "whole object",
-            Region::Lit => "lit side",
-            Region::Terminator => "terminator band",
-            Region::Shadow => "shadow side",
-            Region::CastShadow => "cast shadow",
-        })
     }
 }
 
@@ -487,7 +440,7 @@ pub fn run_case(
         })
         .collect();
 
-    let mask = eroded_mask(&renders[0], ERODE_PX);
+    let mask = block_error::covered_mask(&renders[0], ERODE_PX);
     if !mask.iter().any(|&m| m) {
         return Err(case_error("the object covers no pixel fully".into()));
     }
@@ -504,21 +457,25 @@ pub fn run_case(
         .map(|render| flip_map(&reference_tone, &tone_map(render, exposure), width, height))
         .collect();
 
+    let render_blocks: Vec<Vec<Block>> = renders
+        .iter()
+        .map(|render| blocks(render, &reference, &geometry))
+        .collect();
     let mut regions = Vec::new();
-    for region in Region::ALL {
+    for region in REGIONS {
         let mut models_row = Vec::new();
         let (mut blocks, mut pixels, mut reference_mean_radiance) = (0, 0, f64::NAN);
         for (index, model) in ModelName::ALL.into_iter().enumerate() {
-            let stats = block_stats(&renders[index], &reference, &geometry, region);
+            let error = block_error::region_error(&render_blocks[index], region);
             let (flip, count) = region_flip(&flips[index], &geometry, region);
-            blocks = stats.blocks;
+            blocks = error.blocks;
             pixels = count;
-            reference_mean_radiance = stats.reference_mean;
+            reference_mean_radiance = error.reference_mean_radiance;
             models_row.push(ModelMetrics {
                 model,
                 metrics: Metrics {
-                    relative_rmse: stats.relative_rmse,
-                    mean_relative_error: stats.mean_relative_error,
+                    relative_rmse: error.relative_rmse,
+                    mean_relative_error: error.mean_relative_error,
                     flip,
                 },
             });
@@ -571,21 +528,6 @@ fn downsample(image: &RgbaImage, factor: u32) -> RgbaImage {
         }
     }
     out
-}
-
-/// Pixels the render covers fully with every neighbour within `erode` pixels covered too.
-fn eroded_mask(render: &RgbaImage, erode: i32) -> Vec<bool> {
-    let (w, h) = (render.width as i32, render.height as i32);
-    let full = |x: i32, y: i32| {
-        x >= 0 && y >= 0 && x < w && y < h && render.pixels[(y * w + x) as usize][3] >= 0.999
-    };
-    let mut mask = Vec::with_capacity((w * h) as usize);
-    for y in 0..h {
-        for x in 0..w {
-            mask.push((-erode..=erode).all(|dy| (-erode..=erode).all(|dx| full(x + dx, y + dy))));
-        }
-    }
-    mask
 }
 
 fn luminance(p: [f32; 4]) -> f32 {
@@ -650,13 +592,6 @@ fn region_flip(flip: &[f32], geometry: &Geometry<'_>, region: Region) -> (f64, u
     )
 }
 
-struct BlockStats {
-    relative_rmse: f64,
-    mean_relative_error: f64,
-    reference_mean: f64,
-    blocks: usize,
-}
-
 /// Where each pixel is: compared or not, cos θ, in a cast shadow or not.
 struct Geometry<'a> {
     mask: &'a [bool],
@@ -664,160 +599,372 @@ struct Geometry<'a> {
     occluded: &'a [f32],
 }
 
-/// One 8 × 8 block wholly inside the mask: means of render, reference, cos θ and occlusion.
-struct Block {
-    render: Vec3,
-    reference: Vec3,
-    cos_theta: f32,
-    occluded: f32,
-    column: u32,
-    row: u32,
-}
-
+/// The 8 × 8 blocks of `render` against `reference` wholly inside the compared pixels
+/// ([`block_error::blocks`]).
 fn blocks(render: &RgbaImage, reference: &RgbaImage, geometry: &Geometry<'_>) -> Vec<Block> {
-    let (w, h) = (render.width, render.height);
-    let mut out = Vec::new();
-    for by in 0..h / BLOCK_PX {
-        for bx in 0..w / BLOCK_PX {
-            let (mut r, mut t, mut c, mut o, mut n) = (Vec3::ZERO, Vec3::ZERO, 0.0, 0.0, 0);
-            for y in by * BLOCK_PX..(by + 1) * BLOCK_PX {
-                for x in bx * BLOCK_PX..(bx + 1) * BLOCK_PX {
-                    let i = (y * w + x) as usize;
-                    if geometry.mask[i] {
-                        let (p, q) = (render.pixels[i], reference.pixels[i]);
-                        r += Vec3::new(p[0], p[1], p[2]);
-                        t += Vec3::new(q[0], q[1], q[2]);
-                        c += geometry.cos_theta[i];
-                        o += geometry.occluded[i];
-                        n += 1;
-                    }
+    let rgb = |p: [f32; 4]| Vec3::new(p[0], p[1], p[2]);
+    block_error::blocks(render.width, render.height, |x, y| {
+        let i = (y * render.width + x) as usize;
+        geometry.mask[i].then(|| BlockPixel {
+            model: rgb(render.pixels[i]),
+            reference: rgb(reference.pixels[i]),
+            cos_theta: geometry.cos_theta[i],
+            occluded: geometry.occluded[i],
+        })
+    })
+}
+
+/// Colours of the figure: the region map, the signed block error, labels and background.
+mod colours {
+    pub const BACKGROUND: [u8; 3] = [24, 24, 24];
+    pub const NOT_COMPARED: [u8; 3] = [20, 20, 20];
+    pub const TEXT: [u8; 3] = [235, 235, 235];
+    pub const LIT: [u8; 3] = [230, 150, 60];
+    pub const TERMINATOR: [u8; 3] = [235, 235, 235];
+    pub const SHADOW: [u8; 3] = [60, 110, 220];
+    pub const CAST_SHADOW: [u8; 3] = [150, 60, 170];
+    pub const TOO_BRIGHT: [u8; 3] = [255, 60, 40];
+    pub const TOO_DARK: [u8; 3] = [40, 120, 255];
+    /// A block with no error.
+    pub const EXACT: u8 = 35;
+}
+
+/// Where the panels and labels of a case's figure go: column labels on top (the reference and
+/// the models), row labels on the left, the colour key at the bottom.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FigureLayout {
+    /// One panel's (one image's) size, pixels.
+    pub panel_width_px: u32,
+    /// See `panel_width_px`.
+    pub panel_height_px: u32,
+    /// Panels across: the reference and one per model ([`ModelName::ALL`]).
+    pub columns: u32,
+    /// Panels down: radiance, then regions and signed error.
+    pub rows: u32,
+    /// Width of the row labels left of the panels, pixels.
+    pub label_width_px: u32,
+    /// Height of the column labels above the panels, pixels.
+    pub header_height_px: u32,
+    /// Height of the colour key below the panels, pixels.
+    pub footer_height_px: u32,
+    /// Text size, pixels.
+    text_px: f32,
+}
+
+impl FigureLayout {
+    /// Lines of a column label (longer labels are wrapped to this many and clipped).
+    const HEADER_LINES: u32 = 3;
+    /// Lines of the colour key.
+    const FOOTER_LINES: u32 = 2;
+
+    /// The layout for panels of `panel_width_px` × `panel_height_px` (the compared size).
+    pub fn new(panel_width_px: u32, panel_height_px: u32) -> Self {
+        let text_px = (panel_width_px as f32 / 11.0).clamp(11.0, 22.0);
+        let line = Self::line_px(text_px);
+        let padding = (text_px / 2.0).ceil() as u32;
+        Self {
+            panel_width_px,
+            panel_height_px,
+            columns: 1 + ModelName::ALL.len() as u32,
+            rows: 2,
+            label_width_px: (8.0 * text_px).ceil() as u32,
+            header_height_px: Self::HEADER_LINES * line + padding,
+            footer_height_px: Self::FOOTER_LINES * line + padding,
+            text_px,
+        }
+    }
+
+    fn line_px(text_px: f32) -> u32 {
+        (1.3 * text_px).ceil() as u32
+    }
+
+    /// The figure's width, pixels.
+    pub fn width(&self) -> u32 {
+        self.label_width_px + self.columns * self.panel_width_px
+    }
+
+    /// The figure's height, pixels.
+    pub fn height(&self) -> u32 {
+        self.header_height_px + self.rows * self.panel_height_px + self.footer_height_px
+    }
+
+    /// The top-left pixel of panel (`column`, `row`).
+    fn panel(&self, column: u32, row: u32) -> (u32, u32) {
+        (
+            self.label_width_px + column * self.panel_width_px,
+            self.header_height_px + row * self.panel_height_px,
+        )
+    }
+}
+
+/// Figure labels: egui's default proportional font (Ubuntu Light, bundled with egui),
+/// rasterized with ab_glyph.
+struct Text<'f> {
+    font: ab_glyph::FontRef<'f>,
+    px: f32,
+}
+
+/// A word-wrapped line: words and their colours.
+type Line<'t> = Vec<(&'t str, [u8; 3])>;
+
+impl<'f> Text<'f> {
+    fn width(&self, text: &str) -> f32 {
+        use ab_glyph::{Font, ScaleFont};
+        let scaled = self.font.as_scaled(self.px);
+        let mut previous = None;
+        let mut width = 0.0;
+        for ch in text.chars() {
+            let id = scaled.glyph_id(ch);
+            if let Some(previous) = previous {
+                width += scaled.kern(previous, id);
+            }
+            width += scaled.h_advance(id);
+            previous = Some(id);
+        }
+        width
+    }
+
+    /// Draws `text` in `colour` with its top left at (`x`, `y`), clipped to the image.
+    fn draw(&self, image: &mut image::RgbImage, x: f32, y: f32, text: &str, colour: [u8; 3]) {
+        use ab_glyph::{Font, ScaleFont};
+        let scaled = self.font.as_scaled(self.px);
+        let baseline = y + scaled.ascent();
+        let mut caret = x;
+        let mut previous = None;
+        for ch in text.chars() {
+            let id = scaled.glyph_id(ch);
+            if let Some(previous) = previous {
+                caret += scaled.kern(previous, id);
+            }
+            previous = Some(id);
+            let glyph = id.with_scale_and_position(self.px, ab_glyph::point(caret, baseline));
+            caret += scaled.h_advance(id);
+            let Some(outline) = self.font.outline_glyph(glyph) else {
+                continue;
+            };
+            let bounds = outline.px_bounds();
+            outline.draw(|gx, gy, coverage| {
+                let px = bounds.min.x as i64 + i64::from(gx);
+                let py = bounds.min.y as i64 + i64::from(gy);
+                if px < 0 || py < 0 || px >= i64::from(image.width()) {
+                    return;
                 }
+                if py >= i64::from(image.height()) {
+                    return;
+                }
+                let pixel = image.get_pixel_mut(px as u32, py as u32);
+                let coverage = coverage.clamp(0.0, 1.0);
+                for c in 0..3 {
+                    let blended =
+                        f32::from(pixel[c]) * (1.0 - coverage) + f32::from(colour[c]) * coverage;
+                    pixel[c] = blended.round() as u8;
+                }
+            });
+        }
+    }
+
+    /// Word-wraps `runs` (text and its colour) into lines at most `max_width` wide (a word
+    /// wider than that gets a line of its own).
+    fn wrap<'t>(&self, runs: &[(&'t str, [u8; 3])], max_width: f32) -> Vec<Line<'t>> {
+        let space = self.width(" ");
+        let mut lines: Vec<Line<'t>> = Vec::new();
+        let (mut line, mut width): (Line<'t>, f32) = (Vec::new(), 0.0);
+        for &(text, colour) in runs {
+            for word in text.split_whitespace() {
+                let word_width = self.width(word);
+                if !line.is_empty() && width + space + word_width > max_width {
+                    lines.push(std::mem::take(&mut line));
+                    width = 0.0;
+                }
+                width += if line.is_empty() { 0.0 } else { space } + word_width;
+                line.push((word, colour));
             }
-            if n == BLOCK_PX * BLOCK_PX {
-                let n = n as f32;
-                out.push(Block {
-                    render: r / n,
-                    reference: t / n,
-                    cos_theta: c / n,
-                    occluded: o / n,
-                    column: bx,
-                    row: by,
-                });
+        }
+        if !line.is_empty() {
+            lines.push(line);
+        }
+        lines
+    }
+
+    /// Draws `lines` from (`x`, `y`) down, at most `max_lines` of them; `centre_width`: centre
+    /// each line in that width.
+    fn draw_lines(
+        &self,
+        image: &mut image::RgbImage,
+        (x, y): (f32, f32),
+        lines: &[Line<'_>],
+        max_lines: usize,
+        centre_width: Option<f32>,
+    ) {
+        let space = self.width(" ");
+        let line_px = FigureLayout::line_px(self.px) as f32;
+        for (index, line) in lines.iter().take(max_lines).enumerate() {
+            let line_width: f32 = line.iter().map(|(word, _)| self.width(word)).sum::<f32>()
+                + space * line.len().saturating_sub(1) as f32;
+            let mut caret = x + centre_width.map_or(0.0, |w| ((w - line_width) / 2.0).max(0.0));
+            for &(word, colour) in line {
+                self.draw(image, caret, y + index as f32 * line_px, word, colour);
+                caret += self.width(word) + space;
             }
         }
     }
-    out
 }
 
-fn block_stats(
-    render: &RgbaImage,
-    reference: &RgbaImage,
-    geometry: &Geometry<'_>,
-    region: Region,
-) -> BlockStats {
-    let (mut squared_error, mut squared_reference, mut absolute_error, mut total, mut count) =
-        (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
-    for block in blocks(render, reference, geometry) {
-        if !region.contains(block.cos_theta, block.occluded) {
-            continue;
-        }
-        let (t, difference) = (block.reference, block.render - block.reference);
-        squared_error += f64::from(difference.length_squared());
-        squared_reference += f64::from(t.length_squared());
-        absolute_error += f64::from(difference.abs().element_sum());
-        total += f64::from(t.element_sum());
-        count += 1;
-    }
-    if count == 0 {
-        return BlockStats {
-            relative_rmse: f64::NAN,
-            mean_relative_error: f64::NAN,
-            reference_mean: f64::NAN,
-            blocks: 0,
-        };
-    }
-    BlockStats {
-        relative_rmse: (squared_error / squared_reference.max(1e-30)).sqrt(),
-        mean_relative_error: absolute_error / total.max(1e-30),
-        reference_mean: total / (3 * count) as f64,
-        blocks: count,
-    }
+/// The labels of the figure's columns: the path-traced reference, then the models.
+pub fn figure_column_labels() -> Vec<&'static str> {
+    std::iter::once("path-traced reference")
+        .chain(ModelName::ALL.iter().map(|model| model.short_label()))
+        .collect()
 }
 
-/// The case's figure: reference | measured | Gaussian | Lambert (tone-mapped), and beneath,
-/// the regions (lit orange, terminator white, shadow blue, cast shadow purple; dark = not
-/// compared) and each
-/// model's signed relative error per 8 × 8 block (red: too bright, blue: too dark, full colour
-/// at ±50 %).
+/// The labels of the figure's rows.
+pub const FIGURE_ROW_LABELS: [&str; 2] = [
+    "radiance (tone-mapped)",
+    "regions, then signed error per 8 × 8 block",
+];
+
+/// Draws the labels of `layout` into `figure`: column labels, row labels and the colour key.
+fn draw_labels(figure: &mut image::RgbImage, layout: &FigureLayout) {
+    let definitions = egui::FontDefinitions::default();
+    let Some(data) = definitions.font_data.get("Ubuntu-Light") else {
+        return;
+    };
+    let bytes: &[u8] = (*data.font).as_ref();
+    let Ok(font) = ab_glyph::FontRef::try_from_slice(bytes) else {
+        return;
+    };
+    let text = Text {
+        font,
+        px: layout.text_px,
+    };
+    let padding = (layout.text_px / 4.0).ceil();
+    let panel_width = layout.panel_width_px as f32;
+    for (column, label) in figure_column_labels().into_iter().enumerate() {
+        let (x, _) = layout.panel(column as u32, 0);
+        let lines = text.wrap(&[(label, colours::TEXT)], panel_width - 2.0 * padding);
+        text.draw_lines(
+            figure,
+            (x as f32 + padding, padding),
+            &lines,
+            FigureLayout::HEADER_LINES as usize,
+            Some(panel_width - 2.0 * padding),
+        );
+    }
+    let label_width = layout.label_width_px as f32 - 2.0 * padding;
+    for (row, label) in FIGURE_ROW_LABELS.into_iter().enumerate() {
+        let (_, y) = layout.panel(0, row as u32);
+        let lines = text.wrap(&[(label, colours::TEXT)], label_width);
+        text.draw_lines(
+            figure,
+            (padding, y as f32 + padding),
+            &lines,
+            usize::MAX,
+            None,
+        );
+    }
+    let key = [
+        ("regions:", colours::TEXT),
+        ("lit", colours::LIT),
+        ("terminator", colours::TERMINATOR),
+        ("shadow", colours::SHADOW),
+        ("cast shadow", colours::CAST_SHADOW),
+        (
+            "(dark: not compared).  Signed error of each 8 × 8 block:",
+            colours::TEXT,
+        ),
+        ("too bright", colours::TOO_BRIGHT),
+        ("too dark", colours::TOO_DARK),
+        ("(full colour at ±50 %).", colours::TEXT),
+    ];
+    let (_, y) = layout.panel(0, layout.rows);
+    let lines = text.wrap(&key, layout.width() as f32 - 2.0 * padding);
+    text.draw_lines(
+        figure,
+        (padding, y as f32 + padding),
+        &lines,
+        FigureLayout::FOOTER_LINES as usize,
+        None,
+    );
+}
+
+/// The case's figure ([`FigureLayout`]): the reference and each model's render, tone-mapped;
+/// beneath, the regions (lit orange, terminator white, shadow blue, cast shadow purple; dark =
+/// not compared) and each model's signed relative error per 8 × 8 block (red: too bright, blue:
+/// too dark, full colour at ±50 %); column labels name the reference and the models, row labels
+/// what each row shows, and a colour key runs along the bottom.
 pub fn figure(result: &CaseResult) -> image::RgbImage {
     let images = &result.images;
     let (w, h) = (result.width, result.height);
-    let columns = 1 + images.renders.len() as u32;
-    let mut figure = image::RgbImage::new(columns * w, 2 * h);
+    let layout = FigureLayout::new(w, h);
+    let mut figure = image::RgbImage::from_pixel(
+        layout.width(),
+        layout.height(),
+        image::Rgb(colours::BACKGROUND),
+    );
+    draw_labels(&mut figure, &layout);
     let Some(reference) = &images.reference else {
         return figure;
     };
-    let mut paste_tone = |column: u32, image: &RgbaImage| {
+    let mut fill = |column: u32, row: u32, x: u32, y: u32, colour: [u8; 3]| {
+        let (x0, y0) = layout.panel(column, row);
+        figure.put_pixel(x0 + x, y0 + y, image::Rgb(colour));
+    };
+    for (column, image) in std::iter::once(reference)
+        .chain(&images.renders)
+        .enumerate()
+    {
         let rgb = tone_map(image, result.exposure);
         for y in 0..h {
             for x in 0..w {
                 let i = ((y * w + x) * 3) as usize;
-                figure.put_pixel(
-                    column * w + x,
-                    y,
-                    image::Rgb([rgb[i], rgb[i + 1], rgb[i + 2]]),
-                );
+                fill(column as u32, 0, x, y, [rgb[i], rgb[i + 1], rgb[i + 2]]);
             }
         }
-    };
-    paste_tone(0, reference);
-    for (index, render) in images.renders.iter().enumerate() {
-        paste_tone(index as u32 + 1, render);
+    }
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let (cos, occluded) = (images.cos_theta[i], images.occluded[i]);
+            let colour = if !images.mask[i] {
+                colours::NOT_COMPARED
+            } else if Region::CastShadow.contains(cos, occluded) {
+                colours::CAST_SHADOW
+            } else if Region::Lit.contains(cos, occluded) {
+                colours::LIT
+            } else if Region::Terminator.contains(cos, occluded) {
+                colours::TERMINATOR
+            } else {
+                colours::SHADOW
+            };
+            fill(0, 1, x, y, colour);
+        }
     }
     let geometry = Geometry {
         mask: &images.mask,
         cos_theta: &images.cos_theta,
         occluded: &images.occluded,
     };
-    for y in 0..h {
-        for x in 0..w {
-            let i = (y * w + x) as usize;
-            let (cos, occluded) = (images.cos_theta[i], images.occluded[i]);
-            let colour = if !images.mask[i] {
-                [20, 20, 20]
-            } else if Region::CastShadow.contains(cos, occluded) {
-                [150, 60, 170]
-            } else if Region::Lit.contains(cos, occluded) {
-                [230, 150, 60]
-            } else if Region::Terminator.contains(cos, occluded) {
-                [235, 235, 235]
-            } else {
-                [60, 110, 220]
-            };
-            figure.put_pixel(x, h + y, image::Rgb(colour));
-        }
-    }
     for (index, render) in images.renders.iter().enumerate() {
-        let x0 = (index as u32 + 1) * w;
+        let column = index as u32 + 1;
         for y in 0..h {
             for x in 0..w {
-                figure.put_pixel(x0 + x, h + y, image::Rgb([20, 20, 20]));
+                fill(column, 1, x, y, colours::NOT_COMPARED);
             }
         }
         for block in blocks(render, reference, &geometry) {
-            let (r, t, bx, by) = (block.render, block.reference, block.column, block.row);
-            let relative =
-                ((r - t).element_sum() / t.element_sum().max(1e-9)).clamp(-0.5, 0.5) / 0.5;
+            let relative = block.signed_relative_error().clamp(-0.5, 0.5) / 0.5;
             let strength = relative.abs();
             let base = if relative > 0.0 {
-                [255.0, 60.0, 40.0]
+                colours::TOO_BRIGHT
             } else {
-                [40.0, 120.0, 255.0]
+                colours::TOO_DARK
             };
-            let colour = base.map(|c: f32| (c * strength + 35.0 * (1.0 - strength)) as u8);
-            for y in by * BLOCK_PX..(by + 1) * BLOCK_PX {
-                for x in bx * BLOCK_PX..(bx + 1) * BLOCK_PX {
-                    figure.put_pixel(x0 + x, h + y, image::Rgb(colour));
+            let colour = base.map(|c| {
+                (f32::from(c) * strength + f32::from(colours::EXACT) * (1.0 - strength)) as u8
+            });
+            for y in block.row * BLOCK_PX..(block.row + 1) * BLOCK_PX {
+                for x in block.column * BLOCK_PX..(block.column + 1) * BLOCK_PX {
+                    fill(column, 1, x, y, colour);
                 }
             }
         }
@@ -825,76 +972,165 @@ pub fn figure(result: &CaseResult) -> image::RgbImage {
     figure
 }
 
-/// The results as a Markdown table: per case and region, each model's relative RMSE, mean
+/// One case's Markdown table: per region, each model's relative RMSE, mean relative error and
+/// FLIP; the best model of each region and metric in bold.
+fn case_table(result: &CaseResult) -> String {
+    let mut text = String::new();
+    text.push_str("| region | blocks | mean reference radiance |");
+    for model in ModelName::ALL {
+        text.push_str(&format!(" {model} |"));
+    }
+    text.push_str("\n|---|---|---|");
+    text.push_str(&"---|".repeat(ModelName::ALL.len()));
+    text.push('\n');
+    for row in &result.regions {
+        let best = |metric: fn(&Metrics) -> f64| {
+            row.models
+                .iter()
+                .map(|entry| metric(&entry.metrics))
+                .filter(|v| v.is_finite())
+                .fold(f64::INFINITY, f64::min)
+        };
+        let best_rmse = best(|m| m.relative_rmse);
+        let best_mre = best(|m| m.mean_relative_error);
+        let best_flip = best(|m| m.flip);
+        let cell = |value: f64, best: f64, percent: bool| {
+            let text = if !value.is_finite() {
+                "—".to_owned()
+            } else if percent {
+                format!("{:.1} %", value * 100.0)
+            } else {
+                format!("{value:.3}")
+            };
+            if value == best {
+                format!("**{text}**")
+            } else {
+                text
+            }
+        };
+        let radiance = if row.reference_mean_radiance.is_finite() {
+            format!("{:.4}", row.reference_mean_radiance)
+        } else {
+            "—".to_owned()
+        };
+        text.push_str(&format!("| {} | {} | {radiance} |", row.region, row.blocks));
+        for entry in &row.models {
+            let m = &entry.metrics;
+            text.push_str(&format!(
+                " {} / {} / {} |",
+                cell(m.relative_rmse, best_rmse, true),
+                cell(m.mean_relative_error, best_mre, true),
+                cell(m.flip, best_flip, false)
+            ));
+        }
+        text.push('\n');
+    }
+    text
+}
+
+/// What a case is: its name, size and Lambert albedo (a table's caption).
+fn case_caption(result: &CaseResult) -> String {
+    format!(
+        "{} × {} px; Lambert albedo {:.3} {:.3} {:.3}",
+        result.width,
+        result.height,
+        result.lambert_albedo[0],
+        result.lambert_albedo[1],
+        result.lambert_albedo[2]
+    )
+}
+
+const TABLE_KEY: &str = "Each cell: relative RMSE / mean relative error (8 × 8-pixel blocks, linear \
+                         radiance) / mean FLIP (tone-mapped). Lower is better; the best of each \
+                         region in bold.\n";
+
+/// The results as Markdown tables: per case and region, each model's relative RMSE, mean
 /// relative error and FLIP; the best model of each region and metric in bold.
 pub fn markdown(results: &[CaseResult]) -> String {
     let mut text = String::new();
     for result in results {
         text.push_str(&format!(
-            "**{}** ({} × {} px; Lambert albedo {:.3} {:.3} {:.3})\n\n",
+            "**{}** ({})\n\n",
             result.name,
-            result.width,
-            result.height,
-            result.lambert_albedo[0],
-            result.lambert_albedo[1],
-            result.lambert_albedo[2]
+            case_caption(result)
         ));
-        text.push_str("| region | blocks | mean reference radiance |");
-        for model in ModelName::ALL {
-            text.push_str(&format!(" {model} |"));
-        }
-        text.push_str("\n|---|---|---|");
-        text.push_str(&"---|".repeat(ModelName::ALL.len()));
-        text.push('\n');
-        for row in &result.regions {
-            let best = |metric: fn(&Metrics) -> f64| {
-                row.models
-                    .iter()
-                    .map(|entry| metric(&entry.metrics))
-                    .filter(|v| v.is_finite())
-                    .fold(f64::INFINITY, f64::min)
-            };
-            let best_rmse = best(|m| m.relative_rmse);
-            let best_mre = best(|m| m.mean_relative_error);
-            let best_flip = best(|m| m.flip);
-            let cell = |value: f64, best: f64, percent: bool| {
-                let text = if !value.is_finite() {
-                    "—".to_owned()
-                } else if percent {
-                    format!("{:.1} %", value * 100.0)
-                } else {
-                    format!("{value:.3}")
-                };
-                if value == best {
-                    format!("**{text}**")
-                } else {
-                    text
-                }
-            };
-            let radiance = if row.reference_mean_radiance.is_finite() {
-                format!("{:.4}", row.reference_mean_radiance)
-            } else {
-                "—".to_owned()
-            };
-            text.push_str(&format!("| {} | {} | {radiance} |", row.region, row.blocks));
-            for entry in &row.models {
-                let m = &entry.metrics;
-                text.push_str(&format!(
-                    " {} / {} / {} |",
-                    cell(m.relative_rmse, best_rmse, true),
-                    cell(m.mean_relative_error, best_mre, true),
-                    cell(m.flip, best_flip, false)
-                ));
-            }
-            text.push('\n');
-        }
+        text.push_str(&case_table(result));
         text.push('\n');
     }
-    text.push_str(
-        "Each cell: relative RMSE / mean relative error (8 × 8-pixel blocks, linear radiance) / \
-         mean FLIP (tone-mapped). Lower is better; the best of each region in bold.\n",
-    );
+    text.push_str(TABLE_KEY);
     text
+}
+
+/// How a results page was made: the command line, the adapter, the fit.
+#[derive(Clone, Debug, Default)]
+pub struct Provenance {
+    /// The command line that wrote the page (`cdrf-viewer compare …`).
+    pub command: String,
+    /// The GPU adapter the renders ran on (the numbers depend on it slightly).
+    pub adapter: String,
+    /// The fit folder whose models were compared.
+    pub fit: String,
+}
+
+/// A results page (Markdown, meant to be committed as `docs/results.md`): what is compared and
+/// how, then per case its figure (`figures`: the folder of the figures, relative to the
+/// page) and its table. Everything in it is generated, so no number in it can drift from what
+/// `compare` measures.
+pub fn results_page(results: &[CaseResult], figures: &str, provenance: &Provenance) -> String {
+    let mut text = String::new();
+    text.push_str("# Results: measured vs Gaussian vs Lambert against path-traced references\n\n");
+    text.push_str(&format!(
+        "<!-- Generated by `{}`; do not edit by hand: run it again. -->\n\n",
+        provenance.command
+    ));
+    text.push_str(&format!(
+        "Generated by `{}` on {} with the models of `{}`: the measured CDRF (the table), Kubo's \
+         Gaussian CDRF fitted to the same photographs (both with the fit's view correction) and \
+         Lambert with the albedo fitted to the measured table, each also with the non-local \
+         terms (cast shadows, transmission) where they apply.\n\n",
+        provenance.command, provenance.adapter, provenance.fit
+    ));
+    text.push_str(&format!(
+        "**How it compares** (`cdrf_viewer::compare`; the metric is `cdrf_core::block_error`, \
+         the one cdrf-fit and the render tests use too):\n\
+         - *Pixels*: those the render covers fully (4× MSAA coverage = 1) with all neighbours \
+         within {ERODE_PX} px covered too.\n\
+         - *Errors in linear radiance* on {BLOCK_PX} × {BLOCK_PX}-pixel blocks wholly inside \
+         those pixels: relative RMSE √(Σ|R − T|²)/√(Σ T²) and mean relative error \
+         Σ|R − T|/Σ T over the region's blocks and channels (T reference, R render; ratios of \
+         sums). *FLIP* on tone-mapped images (the exposure puts the reference's 99th-percentile \
+         luminance at 0.9, sRGB), averaged over the region's pixels.\n\
+         - *Regions* by a block's mean cos θ (θ between normal and light): lit side \
+         cos θ ≥ {TERMINATOR_COS}, terminator band |cos θ| < {TERMINATOR_COS}, shadow side \
+         cos θ ≤ −{TERMINATOR_COS}, and the cast shadow: facing the light but hidden from it \
+         by another part of the object, taken out of the lit side and the terminator band.\n\n"
+    ));
+    for result in results {
+        text.push_str(&format!("## {}\n\n", result.name));
+        text.push_str(&format!(
+            "![{}: the reference and each model; beneath: the regions and each model's signed \
+             error per block]({}/{}.png)\n\n",
+            result.name,
+            figures.trim_end_matches('/'),
+            result.name
+        ));
+        text.push_str(&format!("{}\n\n", case_caption(result)));
+        text.push_str(&case_table(result));
+        text.push('\n');
+    }
+    text.push_str(TABLE_KEY);
+    text
+}
+
+/// Writes `text` to `path` through a temporary file.
+fn write_text(path: &Path, text: &str) -> Result<(), CompareError> {
+    cdrf_core::atomic::write_file(path, |file| {
+        std::io::Write::write_all(file, text.as_bytes())
+    })
+    .map_err(|e| CompareError::File {
+        path: path.to_owned(),
+        message: e.to_string(),
+    })
 }
 
 /// Writes `compare.json`, `compare.md` and `<case>.png` (the figures) into `folder` (each
@@ -912,17 +1148,10 @@ pub fn write_outputs(results: &[CaseResult], folder: &Path) -> Result<Vec<PathBu
     let json_path = folder.join("compare.json");
     let json =
         serde_json::to_string_pretty(results).map_err(|e| file_error(&json_path, e.to_string()))?;
-    cdrf_core::atomic::write_file(&json_path, |file| {
-        std::io::Write::write_all(file, json.as_bytes())
-    })
-    .map_err(|e| file_error(&json_path, e.to_string()))?;
+    write_text(&json_path, &json)?;
     written.push(json_path);
     let md_path = folder.join("compare.md");
-    let md = markdown(results);
-    cdrf_core::atomic::write_file(&md_path, |file| {
-        std::io::Write::write_all(file, md.as_bytes())
-    })
-    .map_err(|e| file_error(&md_path, e.to_string()))?;
+    write_text(&md_path, &markdown(results))?;
     written.push(md_path);
     for result in results {
         let path = folder.join(format!("{}.png", result.name));
@@ -942,6 +1171,52 @@ pub fn write_outputs(results: &[CaseResult], folder: &Path) -> Result<Vec<PathBu
         written.push(path);
     }
     Ok(written)
+}
+
+/// Writes the [`results_page`] to `page`, linking the figures `write_outputs` wrote into
+/// `figures_folder` (relative to the page's folder when both are under one folder, else by
+/// absolute path).
+///
+/// # Errors
+/// [`CompareError::File`] naming the file.
+pub fn write_results_page(
+    results: &[CaseResult],
+    page: &Path,
+    figures_folder: &Path,
+    provenance: &Provenance,
+) -> Result<(), CompareError> {
+    let page_folder = page.parent().filter(|p| !p.as_os_str().is_empty());
+    let page_folder = page_folder.unwrap_or(Path::new("."));
+    std::fs::create_dir_all(page_folder).map_err(|e| CompareError::File {
+        path: page_folder.to_owned(),
+        message: e.to_string(),
+    })?;
+    let canonical = |path: &Path| {
+        path.canonicalize().map_err(|e| CompareError::File {
+            path: path.to_owned(),
+            message: e.to_string(),
+        })
+    };
+    let figures = relative_path(&canonical(figures_folder)?, &canonical(page_folder)?);
+    write_text(page, &results_page(results, &figures, provenance))
+}
+
+/// `target` relative to the folder `base` (both absolute), with `/` separators.
+fn relative_path(target: &Path, base: &Path) -> String {
+    let target: Vec<_> = target.components().collect();
+    let base: Vec<_> = base.components().collect();
+    let common = target.iter().zip(&base).take_while(|(a, b)| a == b).count();
+    let mut parts: Vec<String> = vec!["..".to_owned(); base.len() - common];
+    parts.extend(
+        target[common..]
+            .iter()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned()),
+    );
+    if parts.is_empty() {
+        ".".to_owned()
+    } else {
+        parts.join("/")
+    }
 }
 
 /// Per pixel of the scene camera's `width` × `height` image: 1 where the visible surface point
