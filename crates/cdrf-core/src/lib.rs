@@ -29,6 +29,7 @@
 //! ```
 
 pub mod atomic;
+pub mod block_error;
 pub mod catmull_rom;
 pub mod curvature;
 pub mod gaussian;

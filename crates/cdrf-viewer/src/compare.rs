@@ -12,18 +12,19 @@
 //! - **Pixels compared**: those the render covers fully (4× MSAA coverage = 1) with every
 //!   neighbour within [`ERODE_PX`] pixels covered too — the silhouette eroded by 2 px, so edge
 //!   pixels (partial coverage, sub-pixel silhouette differences) never count.
-//! - **Regions** by θ, the angle between normal and light, from two extra Lambert renders
-//!   (light and opposite light: cos θ = L₊ − L₋ per pixel, as the renderer interpolates normals):
-//!   lit side cos θ ≥ 0.26 (θ ≤ 75°), terminator band |cos θ| < 0.26, shadow side cos θ ≤ −0.26;
-//!   and the *cast shadow*: points facing the light (cos θ > 0) that another part of the object
-//!   hides from it ([`cast_shadow`], a CPU shadow map), taken out of the lit side and the
-//!   terminator band — light that no local model can know is missing.
-//! - **Radiance errors** on 8 × 8-pixel blocks (the references' per-pixel noise is 7 % lit to
-//!   tens of per cent in shadow; a block averages 64 pixels) that lie wholly in the compared
-//!   pixels, assigned to a region by their mean cos θ: *relative RMSE* =
-//!   √(Σ|R − T|²) / √(Σ T²) and *mean relative error* = Σ|R − T| / Σ T, both over blocks and
-//!   channels (T the reference, R the render). Ratios of sums, not means of ratios: a block in
-//!   a cast shadow (T ≈ 0) weighs by its radiance instead of dividing by nearly zero.
+//! - **Regions** ([`Region`]) by θ, the angle between normal and light, from two extra Lambert
+//!   renders (light and opposite light: cos θ = L₊ − L₋ per pixel, as the renderer interpolates
+//!   normals): lit side cos θ ≥ 0.26 (θ ≤ 75°), terminator band |cos θ| < 0.26, shadow side
+//!   cos θ ≤ −0.26; and the *cast shadow*: points facing the light (cos θ > 0) that another part
+//!   of the object hides from it ([`cast_shadow`], a CPU shadow map), taken out of the lit side
+//!   and the terminator band — light that no local model can know is missing.
+//! - **Radiance errors**: cdrf's one block metric, [`cdrf_core::block_error`] — 8 × 8-pixel
+//!   blocks (the references' per-pixel noise is 7 % lit to tens of per cent in shadow; a block
+//!   averages 64 pixels) that lie wholly in the compared pixels, assigned to a region by their
+//!   mean cos θ and cast-shadow fraction: *relative RMSE* = √(Σ|R − T|²) / √(Σ T²) and *mean
+//!   relative error* = Σ|R − T| / Σ T, both over blocks and channels (T the reference, R the
+//!   render). Ratios of sums, not means of ratios: a block in a cast shadow (T ≈ 0) weighs by
+//!   its radiance instead of dividing by nearly zero.
 //! - **FLIP** (NVIDIA FLIP, 67 px/°) between the tone-mapped images (both × the exposure that
 //!   puts the reference's 99th-percentile luminance at 0.9, clamped, sRGB), averaged over the
 //!   compared pixels of each region.
@@ -31,6 +32,7 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use cdrf_core::block_error::{self, Block, BlockPixel};
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::{RgbaImage, linear_to_srgb};
@@ -44,12 +46,21 @@ use thiserror::Error;
 
 use crate::assets::{FIT_GAUSSIAN_FILE, FIT_LUT_FILE, LoadedGaussian, LoadedLut};
 
+pub use cdrf_core::block_error::{BLOCK_PX, Region, TERMINATOR_COS};
+pub use figure::{FIGURE_ROW_LABELS, FigureLayout, figure, figure_column_labels};
+
+mod figure;
+
 /// Pixels eroded from the render's silhouette before comparing.
-pub const ERODE_PX: i32 = 2;
-/// Side of the blocks radiance errors are computed on, pixels.
-pub const BLOCK_PX: u32 = 8;
-/// |cos θ| below which a block or pixel is in the terminator band (θ within 75°…105°).
-pub const TERMINATOR_COS: f32 = 0.26;
+pub const ERODE_PX: u32 = 2;
+/// The regions of the tables, in table order.
+pub const REGIONS: [Region; 5] = [
+    Region::Whole,
+    Region::Lit,
+    Region::Terminator,
+    Region::Shadow,
+    Region::CastShadow,
+];
 
 /// Why a comparison could not run.
 #[derive(Debug, Error)]
@@ -228,61 +239,6 @@ impl ModelName {
 impl fmt::Display for ModelName {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.short_label())
-    }
-}
-
-/// A region of the object.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Region {
-    /// Every compared pixel.
-    Whole,
-    /// cos θ ≥ [`TERMINATOR_COS`].
-    Lit,
-    /// |cos θ| < [`TERMINATOR_COS`].
-    Terminator,
-    /// cos θ ≤ −[`TERMINATOR_COS`].
-    Shadow,
-    /// Facing the light (cos θ > 0) but hidden from it by another part of the object: light no
-    /// local model (no CDRF) knows is missing. Excluded from the lit side and the terminator
-    /// band.
-    CastShadow,
-}
-
-impl Region {
-    /// All four, in table order.
-    pub const ALL: [Region; 5] = [
-        Region::Whole,
-        Region::Lit,
-        Region::Terminator,
-        Region::Shadow,
-        Region::CastShadow,
-    ];
-
-    /// Whether a pixel or block with mean `cos_theta` and `occluded` (the fraction of it in a
-    /// cast shadow, 0 or 1 for a pixel) belongs to the region; a block counts as cast shadow
-    /// when most of it is.
-    fn contains(self, cos_theta: f32, occluded: f32) -> bool {
-        let cast = occluded > 0.5 && cos_theta > 0.0;
-        match self {
-            Region::Whole => true,
-            Region::Lit => cos_theta >= TERMINATOR_COS && !cast,
-            Region::Terminator => cos_theta.abs() < TERMINATOR_COS && !cast,
-            Region::Shadow => cos_theta <= -TERMINATOR_COS,
-            Region::CastShadow => cast,
-        }
-    }
-}
-
-impl fmt::Display for Region {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Region::Whole => "whole object",
-            Region::Lit => "lit side",
-            Region::Terminator => "terminator band",
-            Region::Shadow => "shadow side",
-            Region::CastShadow => "cast shadow",
-        })
     }
 }
 
@@ -492,7 +448,7 @@ pub fn run_case(
         })
         .collect();
 
-    let mask = eroded_mask(&renders[0], ERODE_PX);
+    let mask = block_error::covered_mask(&renders[0], ERODE_PX);
     if !mask.iter().any(|&m| m) {
         return Err(case_error("the object covers no pixel fully".into()));
     }
@@ -509,21 +465,25 @@ pub fn run_case(
         .map(|render| flip_map(&reference_tone, &tone_map(render, exposure), width, height))
         .collect();
 
+    let render_blocks: Vec<Vec<Block>> = renders
+        .iter()
+        .map(|render| blocks(render, &reference, &geometry))
+        .collect();
     let mut regions = Vec::new();
-    for region in Region::ALL {
+    for region in REGIONS {
         let mut models_row = Vec::new();
         let (mut blocks, mut pixels, mut reference_mean_radiance) = (0, 0, f64::NAN);
         for (index, model) in ModelName::ALL.into_iter().enumerate() {
-            let stats = block_stats(&renders[index], &reference, &geometry, region);
+            let error = block_error::region_error(&render_blocks[index], region);
             let (flip, count) = region_flip(&flips[index], &geometry, region);
-            blocks = stats.blocks;
+            blocks = error.blocks;
             pixels = count;
-            reference_mean_radiance = stats.reference_mean;
+            reference_mean_radiance = error.reference_mean_radiance;
             models_row.push(ModelMetrics {
                 model,
                 metrics: Metrics {
-                    relative_rmse: stats.relative_rmse,
-                    mean_relative_error: stats.mean_relative_error,
+                    relative_rmse: error.relative_rmse,
+                    mean_relative_error: error.mean_relative_error,
                     flip,
                 },
             });
@@ -576,21 +536,6 @@ fn downsample(image: &RgbaImage, factor: u32) -> RgbaImage {
         }
     }
     out
-}
-
-/// Pixels the render covers fully with every neighbour within `erode` pixels covered too.
-fn eroded_mask(render: &RgbaImage, erode: i32) -> Vec<bool> {
-    let (w, h) = (render.width as i32, render.height as i32);
-    let full = |x: i32, y: i32| {
-        x >= 0 && y >= 0 && x < w && y < h && render.pixels[(y * w + x) as usize][3] >= 0.999
-    };
-    let mut mask = Vec::with_capacity((w * h) as usize);
-    for y in 0..h {
-        for x in 0..w {
-            mask.push((-erode..=erode).all(|dy| (-erode..=erode).all(|dx| full(x + dx, y + dy))));
-        }
-    }
-    mask
 }
 
 fn luminance(p: [f32; 4]) -> f32 {
@@ -655,13 +600,6 @@ fn region_flip(flip: &[f32], geometry: &Geometry<'_>, region: Region) -> (f64, u
     )
 }
 
-struct BlockStats {
-    relative_rmse: f64,
-    mean_relative_error: f64,
-    reference_mean: f64,
-    blocks: usize,
-}
-
 /// Where each pixel is: compared or not, cos θ, in a cast shadow or not.
 struct Geometry<'a> {
     mask: &'a [bool],
@@ -669,237 +607,180 @@ struct Geometry<'a> {
     occluded: &'a [f32],
 }
 
-/// One 8 × 8 block wholly inside the mask: means of render, reference, cos θ and occlusion.
-struct Block {
-    render: Vec3,
-    reference: Vec3,
-    cos_theta: f32,
-    occluded: f32,
-    column: u32,
-    row: u32,
-}
-
+/// The 8 × 8 blocks of `render` against `reference` wholly inside the compared pixels
+/// ([`block_error::blocks`]).
 fn blocks(render: &RgbaImage, reference: &RgbaImage, geometry: &Geometry<'_>) -> Vec<Block> {
-    let (w, h) = (render.width, render.height);
-    let mut out = Vec::new();
-    for by in 0..h / BLOCK_PX {
-        for bx in 0..w / BLOCK_PX {
-            let (mut r, mut t, mut c, mut o, mut n) = (Vec3::ZERO, Vec3::ZERO, 0.0, 0.0, 0);
-            for y in by * BLOCK_PX..(by + 1) * BLOCK_PX {
-                for x in bx * BLOCK_PX..(bx + 1) * BLOCK_PX {
-                    let i = (y * w + x) as usize;
-                    if geometry.mask[i] {
-                        let (p, q) = (render.pixels[i], reference.pixels[i]);
-                        r += Vec3::new(p[0], p[1], p[2]);
-                        t += Vec3::new(q[0], q[1], q[2]);
-                        c += geometry.cos_theta[i];
-                        o += geometry.occluded[i];
-                        n += 1;
-                    }
-                }
-            }
-            if n == BLOCK_PX * BLOCK_PX {
-                let n = n as f32;
-                out.push(Block {
-                    render: r / n,
-                    reference: t / n,
-                    cos_theta: c / n,
-                    occluded: o / n,
-                    column: bx,
-                    row: by,
-                });
-            }
-        }
-    }
-    out
+    let rgb = |p: [f32; 4]| Vec3::new(p[0], p[1], p[2]);
+    block_error::blocks(render.width, render.height, |x, y| {
+        let i = (y * render.width + x) as usize;
+        geometry.mask[i].then(|| BlockPixel {
+            model: rgb(render.pixels[i]),
+            reference: rgb(reference.pixels[i]),
+            cos_theta: geometry.cos_theta[i],
+            occluded: geometry.occluded[i],
+        })
+    })
 }
 
-fn block_stats(
-    render: &RgbaImage,
-    reference: &RgbaImage,
-    geometry: &Geometry<'_>,
-    region: Region,
-) -> BlockStats {
-    let (mut squared_error, mut squared_reference, mut absolute_error, mut total, mut count) =
-        (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
-    for block in blocks(render, reference, geometry) {
-        if !region.contains(block.cos_theta, block.occluded) {
-            continue;
-        }
-        let (t, difference) = (block.reference, block.render - block.reference);
-        squared_error += f64::from(difference.length_squared());
-        squared_reference += f64::from(t.length_squared());
-        absolute_error += f64::from(difference.abs().element_sum());
-        total += f64::from(t.element_sum());
-        count += 1;
+/// One case's Markdown table: per region, each model's relative RMSE, mean relative error and
+/// FLIP; the best model of each region and metric in bold.
+fn case_table(result: &CaseResult) -> String {
+    let mut text = String::new();
+    text.push_str("| region | blocks | mean reference radiance |");
+    for model in ModelName::ALL {
+        text.push_str(&format!(" {model} |"));
     }
-    if count == 0 {
-        return BlockStats {
-            relative_rmse: f64::NAN,
-            mean_relative_error: f64::NAN,
-            reference_mean: f64::NAN,
-            blocks: 0,
+    text.push_str("\n|---|---|---|");
+    text.push_str(&"---|".repeat(ModelName::ALL.len()));
+    text.push('\n');
+    for row in &result.regions {
+        let best = |metric: fn(&Metrics) -> f64| {
+            row.models
+                .iter()
+                .map(|entry| metric(&entry.metrics))
+                .filter(|v| v.is_finite())
+                .fold(f64::INFINITY, f64::min)
         };
+        let best_rmse = best(|m| m.relative_rmse);
+        let best_mre = best(|m| m.mean_relative_error);
+        let best_flip = best(|m| m.flip);
+        let cell = |value: f64, best: f64, percent: bool| {
+            let text = if !value.is_finite() {
+                "—".to_owned()
+            } else if percent {
+                format!("{:.1} %", value * 100.0)
+            } else {
+                format!("{value:.3}")
+            };
+            if value == best {
+                format!("**{text}**")
+            } else {
+                text
+            }
+        };
+        let radiance = if row.reference_mean_radiance.is_finite() {
+            format!("{:.4}", row.reference_mean_radiance)
+        } else {
+            "—".to_owned()
+        };
+        text.push_str(&format!("| {} | {} | {radiance} |", row.region, row.blocks));
+        for entry in &row.models {
+            let m = &entry.metrics;
+            text.push_str(&format!(
+                " {} / {} / {} |",
+                cell(m.relative_rmse, best_rmse, true),
+                cell(m.mean_relative_error, best_mre, true),
+                cell(m.flip, best_flip, false)
+            ));
+        }
+        text.push('\n');
     }
-    BlockStats {
-        relative_rmse: (squared_error / squared_reference.max(1e-30)).sqrt(),
-        mean_relative_error: absolute_error / total.max(1e-30),
-        reference_mean: total / (3 * count) as f64,
-        blocks: count,
-    }
+    text
 }
 
-/// The case's figure: reference | measured | Gaussian | Lambert (tone-mapped), and beneath,
-/// the regions (lit orange, terminator white, shadow blue, cast shadow purple; dark = not
-/// compared) and each
-/// model's signed relative error per 8 × 8 block (red: too bright, blue: too dark, full colour
-/// at ±50 %).
-pub fn figure(result: &CaseResult) -> image::RgbImage {
-    let images = &result.images;
-    let (w, h) = (result.width, result.height);
-    let columns = 1 + images.renders.len() as u32;
-    let mut figure = image::RgbImage::new(columns * w, 2 * h);
-    let Some(reference) = &images.reference else {
-        return figure;
-    };
-    let mut paste_tone = |column: u32, image: &RgbaImage| {
-        let rgb = tone_map(image, result.exposure);
-        for y in 0..h {
-            for x in 0..w {
-                let i = ((y * w + x) * 3) as usize;
-                figure.put_pixel(
-                    column * w + x,
-                    y,
-                    image::Rgb([rgb[i], rgb[i + 1], rgb[i + 2]]),
-                );
-            }
-        }
-    };
-    paste_tone(0, reference);
-    for (index, render) in images.renders.iter().enumerate() {
-        paste_tone(index as u32 + 1, render);
-    }
-    let geometry = Geometry {
-        mask: &images.mask,
-        cos_theta: &images.cos_theta,
-        occluded: &images.occluded,
-    };
-    for y in 0..h {
-        for x in 0..w {
-            let i = (y * w + x) as usize;
-            let (cos, occluded) = (images.cos_theta[i], images.occluded[i]);
-            let colour = if !images.mask[i] {
-                [20, 20, 20]
-            } else if Region::CastShadow.contains(cos, occluded) {
-                [150, 60, 170]
-            } else if Region::Lit.contains(cos, occluded) {
-                [230, 150, 60]
-            } else if Region::Terminator.contains(cos, occluded) {
-                [235, 235, 235]
-            } else {
-                [60, 110, 220]
-            };
-            figure.put_pixel(x, h + y, image::Rgb(colour));
-        }
-    }
-    for (index, render) in images.renders.iter().enumerate() {
-        let x0 = (index as u32 + 1) * w;
-        for y in 0..h {
-            for x in 0..w {
-                figure.put_pixel(x0 + x, h + y, image::Rgb([20, 20, 20]));
-            }
-        }
-        for block in blocks(render, reference, &geometry) {
-            let (r, t, bx, by) = (block.render, block.reference, block.column, block.row);
-            let relative =
-                ((r - t).element_sum() / t.element_sum().max(1e-9)).clamp(-0.5, 0.5) / 0.5;
-            let strength = relative.abs();
-            let base = if relative > 0.0 {
-                [255.0, 60.0, 40.0]
-            } else {
-                [40.0, 120.0, 255.0]
-            };
-            let colour = base.map(|c: f32| (c * strength + 35.0 * (1.0 - strength)) as u8);
-            for y in by * BLOCK_PX..(by + 1) * BLOCK_PX {
-                for x in bx * BLOCK_PX..(bx + 1) * BLOCK_PX {
-                    figure.put_pixel(x0 + x, h + y, image::Rgb(colour));
-                }
-            }
-        }
-    }
-    figure
+/// What a case is: its name, size and Lambert albedo (a table's caption).
+fn case_caption(result: &CaseResult) -> String {
+    format!(
+        "{} × {} px; Lambert albedo {:.3} {:.3} {:.3}",
+        result.width,
+        result.height,
+        result.lambert_albedo[0],
+        result.lambert_albedo[1],
+        result.lambert_albedo[2]
+    )
 }
 
-/// The results as a Markdown table: per case and region, each model's relative RMSE, mean
+const TABLE_KEY: &str = "Each cell: relative RMSE / mean relative error (8 × 8-pixel blocks, linear \
+                         radiance) / mean FLIP (tone-mapped). Lower is better; the best of each \
+                         region in bold.\n";
+
+/// The results as Markdown tables: per case and region, each model's relative RMSE, mean
 /// relative error and FLIP; the best model of each region and metric in bold.
 pub fn markdown(results: &[CaseResult]) -> String {
     let mut text = String::new();
     for result in results {
         text.push_str(&format!(
-            "**{}** ({} × {} px; Lambert albedo {:.3} {:.3} {:.3})\n\n",
+            "**{}** ({})\n\n",
             result.name,
-            result.width,
-            result.height,
-            result.lambert_albedo[0],
-            result.lambert_albedo[1],
-            result.lambert_albedo[2]
+            case_caption(result)
         ));
-        text.push_str("| region | blocks | mean reference radiance |");
-        for model in ModelName::ALL {
-            text.push_str(&format!(" {model} |"));
-        }
-        text.push_str("\n|---|---|---|");
-        text.push_str(&"---|".repeat(ModelName::ALL.len()));
-        text.push('\n');
-        for row in &result.regions {
-            let best = |metric: fn(&Metrics) -> f64| {
-                row.models
-                    .iter()
-                    .map(|entry| metric(&entry.metrics))
-                    .filter(|v| v.is_finite())
-                    .fold(f64::INFINITY, f64::min)
-            };
-            let best_rmse = best(|m| m.relative_rmse);
-            let best_mre = best(|m| m.mean_relative_error);
-            let best_flip = best(|m| m.flip);
-            let cell = |value: f64, best: f64, percent: bool| {
-                let text = if !value.is_finite() {
-                    "—".to_owned()
-                } else if percent {
-                    format!("{:.1} %", value * 100.0)
-                } else {
-                    format!("{value:.3}")
-                };
-                if value == best {
-                    format!("**{text}**")
-                } else {
-                    text
-                }
-            };
-            let radiance = if row.reference_mean_radiance.is_finite() {
-                format!("{:.4}", row.reference_mean_radiance)
-            } else {
-                "—".to_owned()
-            };
-            text.push_str(&format!("| {} | {} | {radiance} |", row.region, row.blocks));
-            for entry in &row.models {
-                let m = &entry.metrics;
-                text.push_str(&format!(
-                    " {} / {} / {} |",
-                    cell(m.relative_rmse, best_rmse, true),
-                    cell(m.mean_relative_error, best_mre, true),
-                    cell(m.flip, best_flip, false)
-                ));
-            }
-            text.push('\n');
-        }
+        text.push_str(&case_table(result));
         text.push('\n');
     }
-    text.push_str(
-        "Each cell: relative RMSE / mean relative error (8 × 8-pixel blocks, linear radiance) / \
-         mean FLIP (tone-mapped). Lower is better; the best of each region in bold.\n",
-    );
+    text.push_str(TABLE_KEY);
     text
+}
+
+/// How a results page was made: the command line, the adapter, the fit.
+#[derive(Clone, Debug, Default)]
+pub struct Provenance {
+    /// The command line that wrote the page (`cdrf-viewer compare …`).
+    pub command: String,
+    /// The GPU adapter the renders ran on (the numbers depend on it slightly).
+    pub adapter: String,
+    /// The fit folder whose models were compared.
+    pub fit: String,
+}
+
+/// A results page (Markdown, meant to be committed as `docs/results.md`): what is compared and
+/// how, then per case its figure (`figures`: the folder of the figures, relative to the
+/// page) and its table. Everything in it is generated, so no number in it can drift from what
+/// `compare` measures.
+pub fn results_page(results: &[CaseResult], figures: &str, provenance: &Provenance) -> String {
+    let mut text = String::new();
+    text.push_str("# Results: measured vs Gaussian vs Lambert against path-traced references\n\n");
+    text.push_str(&format!(
+        "<!-- Generated by `{}`; do not edit by hand: run it again. -->\n\n",
+        provenance.command
+    ));
+    text.push_str(&format!(
+        "Generated by `{}` on {} with the models of `{}`: the measured CDRF (the table), Kubo's \
+         Gaussian CDRF fitted to the same photographs (both with the fit's view correction) and \
+         Lambert with the albedo fitted to the measured table, each also with the non-local \
+         terms (cast shadows, transmission) where they apply.\n\n",
+        provenance.command, provenance.adapter, provenance.fit
+    ));
+    text.push_str(&format!(
+        "**How it compares** (`cdrf_viewer::compare`; the metric is `cdrf_core::block_error`, \
+         the one cdrf-fit and the render tests use too):\n\
+         - *Pixels*: those the render covers fully (4× MSAA coverage = 1) with all neighbours \
+         within {ERODE_PX} px covered too.\n\
+         - *Errors in linear radiance* on {BLOCK_PX} × {BLOCK_PX}-pixel blocks wholly inside \
+         those pixels: relative RMSE √(Σ|R − T|²)/√(Σ T²) and mean relative error \
+         Σ|R − T|/Σ T over the region's blocks and channels (T reference, R render; ratios of \
+         sums). *FLIP* on tone-mapped images (the exposure puts the reference's 99th-percentile \
+         luminance at 0.9, sRGB), averaged over the region's pixels.\n\
+         - *Regions* by a block's mean cos θ (θ between normal and light): lit side \
+         cos θ ≥ {TERMINATOR_COS}, terminator band |cos θ| < {TERMINATOR_COS}, shadow side \
+         cos θ ≤ −{TERMINATOR_COS}, and the cast shadow: facing the light but hidden from it \
+         by another part of the object, taken out of the lit side and the terminator band.\n\n"
+    ));
+    for result in results {
+        text.push_str(&format!("## {}\n\n", result.name));
+        text.push_str(&format!(
+            "![{}: the reference and each model; beneath: the regions and each model's signed \
+             error per block]({}/{}.png)\n\n",
+            result.name,
+            figures.trim_end_matches('/'),
+            result.name
+        ));
+        text.push_str(&format!("{}\n\n", case_caption(result)));
+        text.push_str(&case_table(result));
+        text.push('\n');
+    }
+    text.push_str(TABLE_KEY);
+    text
+}
+
+/// Writes `text` to `path` through a temporary file.
+fn write_text(path: &Path, text: &str) -> Result<(), CompareError> {
+    cdrf_core::atomic::write_file(path, |file| {
+        std::io::Write::write_all(file, text.as_bytes())
+    })
+    .map_err(|e| CompareError::File {
+        path: path.to_owned(),
+        message: e.to_string(),
+    })
 }
 
 /// Writes `compare.json`, `compare.md` and `<case>.png` (the figures) into `folder` (each
@@ -917,17 +798,10 @@ pub fn write_outputs(results: &[CaseResult], folder: &Path) -> Result<Vec<PathBu
     let json_path = folder.join("compare.json");
     let json =
         serde_json::to_string_pretty(results).map_err(|e| file_error(&json_path, e.to_string()))?;
-    cdrf_core::atomic::write_file(&json_path, |file| {
-        std::io::Write::write_all(file, json.as_bytes())
-    })
-    .map_err(|e| file_error(&json_path, e.to_string()))?;
+    write_text(&json_path, &json)?;
     written.push(json_path);
     let md_path = folder.join("compare.md");
-    let md = markdown(results);
-    cdrf_core::atomic::write_file(&md_path, |file| {
-        std::io::Write::write_all(file, md.as_bytes())
-    })
-    .map_err(|e| file_error(&md_path, e.to_string()))?;
+    write_text(&md_path, &markdown(results))?;
     written.push(md_path);
     for result in results {
         let path = folder.join(format!("{}.png", result.name));
@@ -947,6 +821,52 @@ pub fn write_outputs(results: &[CaseResult], folder: &Path) -> Result<Vec<PathBu
         written.push(path);
     }
     Ok(written)
+}
+
+/// Writes the [`results_page`] to `page`, linking the figures `write_outputs` wrote into
+/// `figures_folder` (relative to the page's folder when both are under one folder, else by
+/// absolute path).
+///
+/// # Errors
+/// [`CompareError::File`] naming the file.
+pub fn write_results_page(
+    results: &[CaseResult],
+    page: &Path,
+    figures_folder: &Path,
+    provenance: &Provenance,
+) -> Result<(), CompareError> {
+    let page_folder = page.parent().filter(|p| !p.as_os_str().is_empty());
+    let page_folder = page_folder.unwrap_or(Path::new("."));
+    std::fs::create_dir_all(page_folder).map_err(|e| CompareError::File {
+        path: page_folder.to_owned(),
+        message: e.to_string(),
+    })?;
+    let canonical = |path: &Path| {
+        path.canonicalize().map_err(|e| CompareError::File {
+            path: path.to_owned(),
+            message: e.to_string(),
+        })
+    };
+    let figures = relative_path(&canonical(figures_folder)?, &canonical(page_folder)?);
+    write_text(page, &results_page(results, &figures, provenance))
+}
+
+/// `target` relative to the folder `base` (both absolute), with `/` separators.
+fn relative_path(target: &Path, base: &Path) -> String {
+    let target: Vec<_> = target.components().collect();
+    let base: Vec<_> = base.components().collect();
+    let common = target.iter().zip(&base).take_while(|(a, b)| a == b).count();
+    let mut parts: Vec<String> = vec!["..".to_owned(); base.len() - common];
+    parts.extend(
+        target[common..]
+            .iter()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned()),
+    );
+    if parts.is_empty() {
+        ".".to_owned()
+    } else {
+        parts.join("/")
+    }
 }
 
 /// Per pixel of the scene camera's `width` × `height` image: 1 where the visible surface point

@@ -66,6 +66,10 @@ struct CompareArgs {
     /// Output folder for compare.json, compare.md and one figure per case.
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
+    /// Also write the results page (Markdown: how it compares, each case's figure and table;
+    /// e.g. docs/results.md), linking the figures in --out.
+    #[arg(long, value_name = "FILE.md")]
+    results: Option<PathBuf>,
     /// Compare at SIZE × SIZE pixels (must divide the references' size; default: theirs).
     #[arg(long, value_name = "PX")]
     size: Option<u32>,
@@ -272,7 +276,9 @@ fn screenshot(args: &ScreenshotArgs) -> anyhow::Result<()> {
 }
 
 fn compare(args: &CompareArgs) -> anyhow::Result<()> {
-    use cdrf_viewer::compare::{Models, markdown, read_manifest, run_case, write_outputs};
+    use cdrf_viewer::compare::{
+        Models, Provenance, markdown, read_manifest, run_case, write_outputs, write_results_page,
+    };
     let data = cdrf_viewer::assets::bundled_data_dir();
     let cases_path = args
         .cases
@@ -307,7 +313,22 @@ fn compare(args: &CompareArgs) -> anyhow::Result<()> {
             args.curvature_smoothing,
         )?);
     }
-    let written = write_outputs(&results, &args.out)?;
+    let mut written = write_outputs(&results, &args.out)?;
+    if let Some(page) = &args.results {
+        let provenance = Provenance {
+            command: std::iter::once("cdrf-viewer".to_owned())
+                .chain(std::env::args().skip(1))
+                .collect::<Vec<_>>()
+                .join(" "),
+            adapter: device.adapter_description(),
+            fit: args.fit.as_ref().map_or_else(
+                || "data/wax-fit (the bundled fit)".to_owned(),
+                |fit| fit.display().to_string(),
+            ),
+        };
+        write_results_page(&results, page, &args.out, &provenance)?;
+        written.push(page.clone());
+    }
     println!("{}", markdown(&results));
     for path in written {
         eprintln!("wrote {}", path.display());

@@ -7,7 +7,9 @@ use std::process::Command;
 
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
 use cdrf_tests::data_dir;
-use cdrf_viewer::compare::{CaseSpec, ModelName, Models, Region, read_manifest, run_case};
+use cdrf_viewer::compare::{
+    CaseSpec, FigureLayout, ModelName, Models, Region, read_manifest, run_case,
+};
 
 fn case(name: &str) -> CaseSpec {
     let cases = read_manifest(&data_dir().join("compare.toml")).unwrap_or_else(|e| panic!("{e}"));
@@ -135,7 +137,7 @@ fn lambert_albedo_is_fitted_to_the_measurement() {
 }
 
 #[test]
-fn compare_command_writes_json_markdown_and_a_figure() {
+fn compare_command_writes_json_markdown_a_figure_and_the_results_page() {
     let dir = tempfile::tempdir().unwrap();
     let runtime = dir.path().join("xdg-runtime");
     std::fs::create_dir_all(&runtime).unwrap();
@@ -148,6 +150,8 @@ fn compare_command_writes_json_markdown_and_a_figure() {
             "128",
             "--out",
             "out",
+            "--results",
+            "docs/results.md",
         ])
         .current_dir(dir.path())
         .env("XDG_RUNTIME_DIR", &runtime)
@@ -169,10 +173,33 @@ fn compare_command_writes_json_markdown_and_a_figure() {
             .is_some()
     );
     let figure = image::open(dir.path().join("out/sphere_r35.png")).unwrap();
-    // Reference and one column per model.
+    // Reference and one column per model, two rows of panels; the labels (column labels on
+    // top, row labels on the left, the colour key at the bottom) add margins around them.
     let columns = 1 + ModelName::ALL.len() as u32;
-    assert_eq!((figure.width(), figure.height()), (columns * 128, 2 * 128));
+    let layout = FigureLayout::new(128, 128);
+    assert_eq!(
+        (
+            figure.width() - layout.label_width_px,
+            figure.height() - layout.header_height_px - layout.footer_height_px
+        ),
+        (columns * 128, 2 * 128)
+    );
+    // The labels are drawn: the header above the reference holds text (bright pixels).
+    let figure = figure.to_rgb8();
+    let bright = (0..layout.header_height_px)
+        .flat_map(|y| (layout.label_width_px..layout.label_width_px + 128).map(move |x| (x, y)))
+        .filter(|&(x, y)| figure.get_pixel(x, y)[0] > 128)
+        .count();
+    assert!(bright > 20, "no column label above the reference");
     assert!(dir.path().join("out/compare.md").is_file());
+    // The results page links the figures relative to itself and carries the tables.
+    let page = std::fs::read_to_string(dir.path().join("docs/results.md")).unwrap();
+    assert!(page.contains("](../out/sphere_r35.png)"), "{page}");
+    assert!(page.contains("| lit side |"), "{page}");
+    assert!(
+        page.contains("cdrf-viewer compare --case sphere_r35 --size 128"),
+        "{page}"
+    );
 
     let output = Command::new(env!("CARGO_BIN_EXE_cdrf-viewer"))
         .args(["compare", "--case", "teapot", "--out", "out2"])
