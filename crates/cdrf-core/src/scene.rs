@@ -35,7 +35,7 @@
 //! transmission = false          # optional: light through thin parts, T(d, μ) (default false)
 //! ```
 //!
-//! `shadows` and `transmission` are the non-local terms ([`NonLocal`](crate::light::NonLocal), see
+//! `shadows` and `transmission` are the non-local terms ([`NonLocal`], see
 //! [`crate::translucency`]); both off is the poster's local model.
 //!
 //! # Units
