@@ -1,3 +1,8 @@
+"""Gathers the fitted profile over the knot's (or torus's) lit surface and bins render / reference by
+theta (see docs/research/diffusion-gather.md).
+
+usage: python3 knot.py STEM P WEIGHTS.npy [TEXEL_MM [STRIDE]]   (STEM: knot | knot-view2 | torus)
+"""
 import os, sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 import sys, json; sys.path.insert(0, HERE)
@@ -47,10 +52,13 @@ mu=np.clip(N[sel]@tl,1e-3,1)
 Q=P[sel]; flux=h*h*mu**(p_entry-1)
 print('lit texels',len(sel))
 shadow_key = dict(zip(key[sel], pd[sel]))
-ells=np.load(os.path.join(HERE, 'ells.npy')); w=np.load(wfile)
-dd=np.linspace(0,200,20001); Rtab=np.stack([basis(np.maximum(dd,1e-4),ells)@w[c] for c in range(3)],1)
+ells=np.load(os.path.join(HERE, 'ells.npy')); w=np.load(wfile); K=len(ells)
+dd=np.linspace(0,200,20001); Ra=np.stack([basis(np.maximum(dd,1e-4),ells)@w[c][:K] for c in range(3)],1); Rb=np.stack([basis(np.maximum(dd,1e-4),ells)@w[c][K:] for c in range(3)],1)
+M=1.0
+def Ra_(d): return np.stack([np.interp(d,dd,Ra[:,c]) for c in range(3)],-1)
+def Rb_(d): return np.stack([np.interp(d,dd,Rb[:,c]) for c in range(3)],-1)
 def R(d): 
-    return np.stack([np.interp(d,dd,Rtab[:,c]) for c in range(3)],-1)
+    return None
 # reference
 ref=OpenEXR.File(base+stem+'.exr').parts[0].channels['RGB'].pixels.astype(np.float64)
 aov=OpenEXR.File(base+aovstem+'_aov.exr').parts[0].channels
@@ -65,8 +73,10 @@ G=np.zeros((len(pts),3))
 d_min=0.28*h
 for s in range(0,len(pts),400):
     d=np.linalg.norm(pts[s:s+400,None,:]-Q[None,:,:],axis=-1)
+    z=np.einsum('pk,pk->p',nrm[s:s+400],pts[s:s+400])[:,None]-nrm[s:s+400]@Q.T
+    sv=np.clip(z/np.maximum(d,1e-6),0,1)**M
     d=np.sqrt(d*d+d_min*d_min)
-    G[s:s+400]=np.einsum('pt,ptc->pc',np.broadcast_to(flux,d.shape),R(d)) if False else (R(d)*flux[None,:,None]).sum(1)
+    G[s:s+400]=np.einsum('pt,ptc->pc',np.broadcast_to(flux,d.shape),R(d)) if False else ((Ra_(d)+sv[...,None]*Rb_(d))*flux[None,:,None]).sum(1)
 camV=np.array(meta['camera']['vector_to_camera_V'])
 cth=nrm@tl; th=np.arccos(np.clip(cth,-1,1)); ph=np.arccos(np.clip(nrm@camV,0,1))
 L=load_lut(); kc=np.clip(kap,L['kmin'],L['kmax'])
@@ -74,7 +84,7 @@ lutv=lut_value(L,kc,th); g=view_value(L,th,ph)
 # G_sphere table over (kappa rows, theta)
 
 ks=np.linspace(L['kmin'],L['kmax'],12); tt=np.linspace(0,np.pi,91)
-Gs_tab=np.array([sphere_basis_h(1/k,tt,ells,p_entry)@w.T for k in ks])  # 12,91,3
+import sphere_basis; Gs_tab=np.array([sphere_basis.sb(1/k,tt,ells,p_entry,M)@w.T for k in ks])  # 12,91,3
 Gs=bilinear(Gs_tab,(kc-ks[0])/(ks[1]-ks[0]),th/np.pi*90)
 # cast shadow: facing light but behind first surface
 pk_u=np.floor(pts@u/h).astype(int)-np.floor(P@u/h).astype(int).min(); pk_v=np.floor(pts@v/h).astype(int)-np.floor(P@v/h).astype(int).min()

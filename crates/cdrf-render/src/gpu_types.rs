@@ -171,6 +171,25 @@ pub(crate) const fn uniform_size<T>() -> std::num::NonZeroU64 {
     }
 }
 
+/// A bind group layout entry for a uniform buffer holding one `T` (the type's size as the
+/// minimum binding size).
+pub(crate) const fn uniform_layout_entry<T>(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    has_dynamic_offset: bool,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset,
+            min_binding_size: Some(uniform_size::<T>()),
+        },
+        count: None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

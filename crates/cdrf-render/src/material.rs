@@ -7,7 +7,7 @@ use wgpu::util::DeviceExt;
 
 use crate::error::MaterialError;
 use crate::gpu_data::rgba16f_texels;
-use crate::gpu_types::{GpuMaterial, GpuPenumbraTap, uniform_size};
+use crate::gpu_types::{GpuMaterial, GpuPenumbraTap, uniform_layout_entry};
 use crate::shaders::{Model, PENUMBRA_TAPS};
 use crate::target::{GaussianEvaluation, Options};
 
@@ -71,16 +71,7 @@ impl MaterialFactory {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf material layout"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: Some(uniform_size::<GpuMaterial>()),
-                    },
-                    count: None,
-                },
+                uniform_layout_entry::<GpuMaterial>(0, wgpu::ShaderStages::VERTEX_FRAGMENT, false),
                 texture(1),
                 texture(2),
                 wgpu::BindGroupLayoutEntry {

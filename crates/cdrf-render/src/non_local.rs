@@ -8,7 +8,9 @@ use std::collections::HashMap;
 use cdrf_core::glam::{Mat3, Mat4, Vec3};
 
 use crate::frame::{Draw, FrameDesc};
-use crate::gpu_types::{GpuShadowLight, GpuShadowPass, GpuShadows, GpuVertex, uniform_size};
+use crate::gpu_types::{
+    GpuShadowLight, GpuShadowPass, GpuShadows, GpuVertex, uniform_layout_entry, uniform_size,
+};
 use crate::mesh::{GpuMesh, MeshId};
 use crate::shaders::{MAX_SHADOW_LIGHTS, shadow_shader_source};
 use crate::target::Options;
@@ -54,16 +56,7 @@ impl NonLocalPass {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf shadows layout"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: Some(uniform_size::<GpuShadows>()),
-                    },
-                    count: None,
-                },
+                uniform_layout_entry::<GpuShadows>(0, wgpu::ShaderStages::VERTEX_FRAGMENT, false),
                 wgpu::BindGroupLayoutEntry {
                     binding: 1,
                     // Read per vertex (translucent materials) and per pixel (Lambert).
@@ -86,16 +79,11 @@ impl NonLocalPass {
         let (_, no_shadows) = create_shadow_maps(device, &layout, &uniforms, 1);
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf shadow pass layout"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: true,
-                    min_binding_size: Some(uniform_size::<GpuShadowPass>()),
-                },
-                count: None,
-            }],
+            entries: &[uniform_layout_entry::<GpuShadowPass>(
+                0,
+                wgpu::ShaderStages::VERTEX,
+                true,
+            )],
         });
         let alignment = u64::from(device.limits().min_uniform_buffer_offset_alignment);
         let pass_size = uniform_size::<GpuShadowPass>();

@@ -7,7 +7,7 @@ use cdrf_core::light::NonLocal;
 
 use crate::error::{MaterialError, MeshUploadError, PrepareError};
 use crate::frame::{FrameDesc, ToCamera};
-use crate::gpu_types::{GpuDraw, GpuFrame, GpuLight, uniform_size};
+use crate::gpu_types::{GpuDraw, GpuFrame, GpuLight, uniform_layout_entry, uniform_size};
 use crate::material::{GpuMaterialEntry, MaterialDesc, MaterialFactory, MaterialId};
 use crate::mesh::{GpuMesh, MeshDesc, MeshId};
 use crate::non_local::{NonLocalPass, ShadowCaster};
@@ -70,23 +70,21 @@ impl Renderer {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn new(device: &wgpu::Device, target: &TargetDesc, options: Options) -> Self {
-        let uniform = |size, dynamic| wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: dynamic,
-                min_binding_size: Some(size),
-            },
-            count: None,
-        };
         let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf frame layout"),
-            entries: &[uniform(uniform_size::<GpuFrame>(), false)],
+            entries: &[uniform_layout_entry::<GpuFrame>(
+                0,
+                wgpu::ShaderStages::VERTEX_FRAGMENT,
+                false,
+            )],
         });
         let draw_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf draw layout"),
-            entries: &[uniform(uniform_size::<GpuDraw>(), true)],
+            entries: &[uniform_layout_entry::<GpuDraw>(
+                0,
+                wgpu::ShaderStages::VERTEX_FRAGMENT,
+                true,
+            )],
         });
         let materials_factory = MaterialFactory::new(device);
         let non_local = NonLocalPass::new(device, &draw_layout);
