@@ -86,7 +86,8 @@ struct CompareArgs {
 
 #[derive(Args)]
 struct RenderArgs {
-    /// Scene file (format: README, "Scene files").
+    /// Scene file (format: docs/render.md, "Scene files and headless rendering", and the docs of
+    /// `cdrf_core::scene`).
     #[arg(long = "scene", value_name = "SCENE.toml")]
     render_scene: PathBuf,
     /// Output: .exr (linear float RGBA, alpha = coverage, plus an sRGB preview .png beside
