@@ -918,10 +918,27 @@ fn prepare_rejects_unusable_input() {
         .unwrap_err();
     println!("{error}");
     assert!(matches!(error, PrepareError::BadView));
-    let error = renderer
-        .prepare(device, queue, &frame(view, -1.0, &ok))
-        .unwrap_err();
-    assert!(matches!(error, PrepareError::BadView));
+    // An exposure that is negative, not finite or absurd (1e38 was accepted) is an error
+    // naming it.
+    for exposure in [
+        -1.0,
+        f32::NAN,
+        f32::INFINITY,
+        1e38,
+        cdrf_render::MAX_EXPOSURE * 2.0,
+    ] {
+        let error = renderer
+            .prepare(device, queue, &frame(view, exposure, &ok))
+            .unwrap_err();
+        println!("{error}");
+        assert!(
+            matches!(error, PrepareError::BadExposure { exposure: e } if e.to_bits() == exposure.to_bits()),
+            "{error}"
+        );
+    }
+    renderer
+        .prepare(device, queue, &frame(view, cdrf_render::MAX_EXPOSURE, &ok))
+        .unwrap();
 
     // The non-local terms need millimetres per world unit: zero or NaN is an error.
     for mm_per_world_unit in [0.0, f32::NAN] {

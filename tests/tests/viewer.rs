@@ -39,10 +39,13 @@ fn startup_files() -> StartupFiles {
 
 /// The viewer on bundled data in a kittest harness at `pixels_per_point`, timings hidden.
 fn harness_at(pixels_per_point: f32) -> Harness<'static, ViewerApp> {
-    let render_state = create_render_state(
-        default_wgpu_setup(),
-        egui_wgpu::RendererOptions::PREDICTABLE,
-    );
+    // kittest's setup (software adapters first) on the viewer's backends: no OpenGL, where
+    // the viewer's shaders do not compile.
+    let mut setup = default_wgpu_setup();
+    if let egui_wgpu::WgpuSetup::CreateNew(create) = &mut setup {
+        create.instance_descriptor.backends = cdrf_render::headless::SUPPORTED_BACKENDS;
+    }
+    let render_state = create_render_state(setup, egui_wgpu::RendererOptions::PREDICTABLE);
     let mut app = ViewerApp::new(&render_state, &startup_files());
     app.settings_mut().show_timings = false;
     assert_eq!(app.error(), None, "the bundled data loads");

@@ -122,12 +122,15 @@ pub enum PrepareError {
         /// The draw.
         index: usize,
     },
-    /// The view matrix, camera position or direction, or exposure is unusable.
-    #[error(
-        "the view matrix or camera position is not finite, the camera direction is zero, \
-         or the exposure is negative or not finite"
-    )]
+    /// The view matrix, camera position or direction is unusable.
+    #[error("the view matrix or camera position is not finite, or the camera direction is zero")]
     BadView,
+    /// The exposure is negative, not finite or above [`MAX_EXPOSURE`](crate::MAX_EXPOSURE).
+    #[error("exposure {exposure}: must be in 0..={}", crate::frame::MAX_EXPOSURE)]
+    BadExposure {
+        /// The value given.
+        exposure: f32,
+    },
     /// [`FrameDesc::mm_per_world_unit`](crate::FrameDesc::mm_per_world_unit) is not finite
     /// and > 0.
     #[error("mm per world unit = {mm_per_world_unit}: must be finite and > 0")]
@@ -141,6 +144,34 @@ pub enum PrepareError {
     Pipeline {
         /// The target.
         target: TargetDesc,
+        /// What wgpu said.
+        message: String,
+    },
+}
+
+/// Why an [`OffscreenTarget`](crate::offscreen::OffscreenTarget) could not be created.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum TargetError {
+    /// A side is zero or beyond the device's largest 2D texture.
+    #[error("target size {width} × {height} px: each side must be 1..={max} on this device")]
+    Size {
+        /// Width, pixels.
+        width: u32,
+        /// Height, pixels.
+        height: u32,
+        /// The device's `max_texture_dimension_2d`.
+        max: u32,
+    },
+    /// The device refused the textures or ran out of memory.
+    #[error("creating the {width} × {height} px target ({samples} samples a pixel): {message}")]
+    Create {
+        /// Width, pixels.
+        width: u32,
+        /// Height, pixels.
+        height: u32,
+        /// MSAA samples.
+        samples: u32,
         /// What wgpu said.
         message: String,
     },

@@ -6,6 +6,10 @@ use cdrf_core::light::{DirectionalLight, NonLocal};
 use crate::material::MaterialId;
 use crate::mesh::MeshId;
 
+/// The largest [`FrameDesc::exposure`] a frame accepts: beyond it (1e38 was accepted once)
+/// every lit pixel saturates, which is a mistake, not a setting.
+pub const MAX_EXPOSURE: f32 = 1.0e6;
+
 /// Where the camera is, for the view angle φ.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ToCamera {
@@ -60,7 +64,7 @@ pub struct FrameDesc<'a> {
     /// Directional lights (at most [`MAX_LIGHTS`](crate::MAX_LIGHTS)), irradiance in linear
     /// units.
     pub lights: &'a [DirectionalLight],
-    /// Multiplies the radiance (1 for physical output).
+    /// Multiplies the radiance (1 for physical output): 0..=[`MAX_EXPOSURE`].
     pub exposure: f32,
     /// The objects, drawn in this order.
     pub draws: &'a [Draw],

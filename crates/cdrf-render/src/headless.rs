@@ -14,6 +14,7 @@
 //! at the top, has its centre at `x = (i + 0.5 − W/2)·2h/H` along the camera's right axis.
 
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use cdrf_core::glam::Mat4;
@@ -22,13 +23,13 @@ use cdrf_core::light::{DirectionalLight, NonLocal};
 use cdrf_core::scene::{Material, Projection, Scene, SceneAssets, SceneError};
 use thiserror::Error;
 
-use crate::error::{MaterialError, MeshUploadError, PrepareError};
+use crate::error::{MaterialError, MeshUploadError, PrepareError, TargetError};
 use crate::frame::{Draw, FrameDesc, View};
 use crate::gpu_data::{block_on, f16_bits_to_f32};
 use crate::material::{MaterialDesc, MaterialId};
 use crate::mesh::{MeshDesc, MeshId};
 use crate::offscreen::OffscreenTarget;
-use crate::readback::{ReadbackError, TextureReadback};
+use crate::readback::{ReadbackError, TextureReadback, readback_bytes};
 use crate::renderer::Renderer;
 use crate::target::{Options, TargetDesc};
 
@@ -36,6 +37,17 @@ use crate::target::{Options, TargetDesc};
 pub const HEADLESS_COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// The depth format of headless renders.
 pub const HEADLESS_DEPTH_FORMAT: wgpu::TextureFormat = crate::offscreen::DEFAULT_DEPTH_FORMAT;
+
+/// The backends cdrf renders on: Vulkan, Metal, DX12 (wgpu's primary backends). OpenGL is
+/// refused up front: its GLSL has no `textureLoad` from a depth texture, which the shadow maps
+/// need, so every pipeline would fail to build. Without a Vulkan driver on Linux install
+/// Mesa's (`mesa-vulkan-drivers libvulkan1`), whose lavapipe renders on the CPU.
+pub const SUPPORTED_BACKENDS: wgpu::Backends = wgpu::Backends::PRIMARY;
+
+/// The message of a missing Vulkan driver: the packages that give one.
+pub const VULKAN_HINT: &str = "cdrf renders with Vulkan (or Metal/DX12), not OpenGL; for a \
+     software Vulkan driver install Mesa's: `sudo apt-get install mesa-vulkan-drivers libvulkan1` \
+     (Debian/Ubuntu)";
 
 /// Which adapter a [`HeadlessDevice`] uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -55,16 +67,17 @@ pub struct HeadlessDevice {
     pub queue: wgpu::Queue,
     /// The adapter it runs on.
     pub adapter_info: wgpu::AdapterInfo,
+    /// wgpu errors outside any error scope, recorded instead of wgpu's default panic.
+    uncaptured: Arc<Mutex<Vec<String>>>,
 }
 
 /// Why a headless render failed.
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum HeadlessError {
-    /// No adapter (of the preferred kind) exists.
+    /// No adapter (of the preferred kind) exists on a supported backend.
     #[error(
-        "{} (adapters present: {}). For software rendering install Mesa's Vulkan driver: \
-         `sudo apt-get install mesa-vulkan-drivers libvulkan1` (Debian/Ubuntu)",
+        "{} (Vulkan/Metal/DX12 adapters present: {}; OpenGL ones are not used). {VULKAN_HINT}",
         no_adapter_message(*preference),
         adapter_list(available)
     )]
@@ -94,12 +107,22 @@ pub enum HeadlessError {
     /// The frame could not be prepared.
     #[error("{0}")]
     Prepare(#[from] PrepareError),
-    /// The frame settings are out of range.
-    #[error("{0}")]
-    Settings(String),
     /// Reading the image back failed.
     #[error("reading the image back: {0}")]
     Readback(#[from] ReadbackError),
+    /// The image is larger than this device can render or read back.
+    #[error("image size {width} × {height} px: {reason}")]
+    Size {
+        /// Width, pixels.
+        width: u32,
+        /// Height, pixels.
+        height: u32,
+        /// Which limit it exceeds.
+        reason: String,
+    },
+    /// The device could not create the render target.
+    #[error("{0}")]
+    Target(#[from] TargetError),
     /// wgpu reported an error while rendering or reading back.
     #[error("wgpu: {0}")]
     Gpu(String),
@@ -128,7 +151,7 @@ impl HeadlessDevice {
     /// [`HeadlessError::Device`].
     pub fn new(preference: AdapterPreference) -> Result<Self, HeadlessError> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
-        let adapters = block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+        let adapters = block_on(instance.enumerate_adapters(SUPPORTED_BACKENDS));
         let describe = |adapter: &wgpu::Adapter| {
             let info = adapter.get_info();
             format!("{} ({:?}, {:?})", info.name, info.device_type, info.backend)
@@ -164,11 +187,71 @@ impl HeadlessDevice {
             required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
             ..Default::default()
         }))?;
+        // wgpu's default handler panics; errors outside a scope are recorded and reported by
+        // the next render instead.
+        let uncaptured = Arc::new(Mutex::new(Vec::new()));
+        let sink = uncaptured.clone();
+        device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
+            if let Ok(mut errors) = sink.lock() {
+                errors.push(error.to_string());
+            }
+        }));
         Ok(Self {
             device,
             queue,
             adapter_info: adapter.get_info(),
+            uncaptured,
         })
+    }
+
+    /// The wgpu errors raised outside any error scope since the last call (the device
+    /// records them instead of panicking).
+    pub fn take_uncaptured_errors(&self) -> Vec<String> {
+        self.uncaptured
+            .lock()
+            .map(|mut errors| std::mem::take(&mut *errors))
+            .unwrap_or_default()
+    }
+
+    /// Whether this device can render and read back a `width` × `height` headless image:
+    /// each side at most `max_texture_dimension_2d`, and the read-back buffer (8 bytes a
+    /// pixel, rows padded to 256 bytes) within `max_buffer_size` — with wgpu's default
+    /// limits, 256 MiB: about 5790 × 5790 pixels.
+    ///
+    /// # Errors
+    /// [`HeadlessError::Size`] naming the size and the limit.
+    pub fn check_image_size(&self, width: u32, height: u32) -> Result<(), HeadlessError> {
+        let limits = self.device.limits();
+        let max_side = limits.max_texture_dimension_2d;
+        let size_error = |reason: String| HeadlessError::Size {
+            width,
+            height,
+            reason,
+        };
+        if width == 0 || height == 0 || width > max_side || height > max_side {
+            return Err(size_error(format!(
+                "each side must be 1..={max_side} on this device"
+            )));
+        }
+        let texel_bytes = HEADLESS_COLOR_FORMAT.block_copy_size(None).unwrap_or(8);
+        let bytes = readback_bytes(width, height, texel_bytes);
+        if bytes > limits.max_buffer_size {
+            return Err(size_error(format!(
+                "reading it back needs {bytes} bytes, beyond this device's largest buffer \
+                 ({} bytes)",
+                limits.max_buffer_size
+            )));
+        }
+        Ok(())
+    }
+
+    fn uncaptured_error(&self) -> Result<(), HeadlessError> {
+        let errors = self.take_uncaptured_errors();
+        if errors.is_empty() {
+            Ok(())
+        } else {
+            Err(HeadlessError::Gpu(errors.join("; ")))
+        }
     }
 
     /// A one-line description of the adapter (name, type, backend, driver).
@@ -264,8 +347,9 @@ impl<'a> SceneRenderer<'a> {
     /// Uploads the scene's mesh and sizes the target to its camera.
     ///
     /// # Errors
-    /// [`HeadlessError::Settings`] for an image size the device cannot render,
-    /// [`HeadlessError::Mesh`] naming the mesh file.
+    /// [`HeadlessError::Size`] for an image size the device cannot render or read back
+    /// ([`HeadlessDevice::check_image_size`]), [`HeadlessError::Target`] when the target
+    /// cannot be created (out of memory), [`HeadlessError::Mesh`] naming the mesh file.
     pub fn new(
         device: &'a HeadlessDevice,
         scene: &'a Scene,
@@ -274,12 +358,7 @@ impl<'a> SceneRenderer<'a> {
     ) -> Result<Self, HeadlessError> {
         let camera = &scene.camera;
         let (width, height) = (camera.width, camera.height);
-        let max_side = device.device.limits().max_texture_dimension_2d;
-        if width == 0 || height == 0 || width > max_side || height > max_side {
-            return Err(HeadlessError::Settings(format!(
-                "image size {width} × {height}: each side must be 1..={max_side} on this device"
-            )));
-        }
+        device.check_image_size(width, height)?;
         let target = TargetDesc::new(HEADLESS_COLOR_FORMAT)
             .with_sample_count(camera.msaa_samples)
             .with_depth(HEADLESS_DEPTH_FORMAT);
@@ -302,10 +381,11 @@ impl<'a> SceneRenderer<'a> {
                 path: scene.mesh.path.clone(),
                 error,
             })?;
-        let targets = OffscreenTarget::new(&device.device, &target, width, height);
+        let targets = OffscreenTarget::try_new(&device.device, &target, width, height)?;
         if let Some(error) = block_on(scope.pop()) {
             return Err(HeadlessError::Gpu(error.to_string()));
         }
+        device.uncaptured_error()?;
         let world_from_model = scene.mesh.transform.world_from_model();
         let (near, far) = depth_range(scene, assets, world_from_model);
         Ok(Self {
@@ -419,6 +499,7 @@ impl<'a> SceneRenderer<'a> {
         if let Some(error) = block_on(scope.pop()) {
             return Err(HeadlessError::Gpu(error.to_string()));
         }
+        device.uncaptured_error()?;
         Ok(Rendered {
             image,
             ms_per_frame,

@@ -112,8 +112,8 @@ pub mod shaders;
 mod target;
 
 pub use cdrf_core::light::{DirectionalLight, NonLocal};
-pub use error::{MaterialError, MeshUploadError, PrepareError};
-pub use frame::{Draw, FrameDesc, ToCamera, View};
+pub use error::{MaterialError, MeshUploadError, PrepareError, TargetError};
+pub use frame::{Draw, FrameDesc, MAX_EXPOSURE, ToCamera, View};
 pub use material::{MaterialDesc, MaterialId};
 pub use mesh::{MeshDesc, MeshId};
 pub use offscreen::OffscreenTarget;

@@ -4,6 +4,8 @@
 //! Headless rendering reads the resolved texture back; an embedding UI (the viewer) renders
 //! into it and samples it in its own pass.
 
+use crate::error::TargetError;
+use crate::gpu_data::block_on;
 use crate::target::TargetDesc;
 
 /// The depth format used when the [`TargetDesc`] names none.
@@ -23,8 +25,42 @@ pub struct OffscreenTarget {
 }
 
 impl OffscreenTarget {
+    /// Textures for `target` of `width` × `height` pixels, with the size checked against the
+    /// device's limits and wgpu's validation and out-of-memory errors captured.
+    ///
+    /// # Errors
+    /// [`TargetError::Size`] for a zero or oversized side, [`TargetError::Create`] when the
+    /// device refuses the textures or runs out of memory.
+    pub fn try_new(
+        device: &wgpu::Device,
+        target: &TargetDesc,
+        width: u32,
+        height: u32,
+    ) -> Result<Self, TargetError> {
+        let max = device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(TargetError::Size { width, height, max });
+        }
+        let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let created = Self::new(device, target, width, height);
+        let memory = block_on(memory.pop());
+        let validation = block_on(validation.pop());
+        match memory.or(validation) {
+            None => Ok(created),
+            Some(error) => Err(TargetError::Create {
+                width,
+                height,
+                samples: target.sample_count,
+                message: error.to_string(),
+            }),
+        }
+    }
+
     /// Textures for `target` of `width` × `height` pixels (each at least 1: callers check
-    /// sizes against the device's limits; wgpu rejects a zero or oversized texture).
+    /// sizes against the device's limits; wgpu rejects a zero or oversized texture, which
+    /// without an error scope reaches the device's uncaptured-error handler —
+    /// [`OffscreenTarget::try_new`] checks and captures).
     pub fn new(device: &wgpu::Device, target: &TargetDesc, width: u32, height: u32) -> Self {
         let texture = |label, format, samples, usage| {
             device.create_texture(&wgpu::TextureDescriptor {

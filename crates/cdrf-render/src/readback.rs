@@ -23,9 +23,44 @@ pub enum ReadbackError {
         /// What wgpu said.
         message: String,
     },
+    /// The read-back buffer would exceed the device's largest buffer.
+    #[error(
+        "reading back {width} × {height} texels needs a {bytes}-byte buffer; \
+         the device allows {max_bytes} bytes"
+    )]
+    TooLarge {
+        /// Texels per row.
+        width: u32,
+        /// Rows.
+        height: u32,
+        /// The buffer's size (rows padded to 256 bytes).
+        bytes: u64,
+        /// The device's `max_buffer_size`.
+        max_bytes: u64,
+    },
+    /// The device could not create the read-back buffer (out of memory or refused).
+    #[error("creating the {width} × {height} read-back buffer ({bytes} bytes): {message}")]
+    Allocate {
+        /// Texels per row.
+        width: u32,
+        /// Rows.
+        height: u32,
+        /// The buffer's size.
+        bytes: u64,
+        /// What wgpu said.
+        message: String,
+    },
     /// Waiting for the GPU failed.
     #[error("waiting for the GPU: {0}")]
     Poll(#[from] wgpu::PollError),
+}
+
+/// Bytes of the buffer that reads back a `width` × `height` texture of `texel_bytes` bytes a
+/// texel (rows padded to [`wgpu::COPY_BYTES_PER_ROW_ALIGNMENT`]).
+pub fn readback_bytes(width: u32, height: u32, texel_bytes: u32) -> u64 {
+    (u64::from(width) * u64::from(texel_bytes))
+        .next_multiple_of(u64::from(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT))
+        * u64::from(height)
 }
 
 /// A copy of a texture's first mip level and layer on its way into a mappable buffer: record it
@@ -42,7 +77,9 @@ impl TextureReadback {
     /// Records the copy of `texture` (usage `COPY_SRC`) into `encoder`.
     ///
     /// # Errors
-    /// [`ReadbackError::Format`] for a format without a fixed texel size.
+    /// [`ReadbackError::Format`] for a format without a fixed texel size,
+    /// [`ReadbackError::TooLarge`] beyond the device's `max_buffer_size`,
+    /// [`ReadbackError::Allocate`] when the device cannot create the buffer.
     pub fn record(
         device: &wgpu::Device,
         encoder: &mut wgpu::CommandEncoder,
@@ -57,12 +94,34 @@ impl TextureReadback {
         let bytes_per_row = width * texel_bytes;
         let padded_bytes_per_row =
             bytes_per_row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+        let bytes = readback_bytes(width, height, texel_bytes);
+        let max_bytes = device.limits().max_buffer_size;
+        if bytes > max_bytes {
+            return Err(ReadbackError::TooLarge {
+                width,
+                height,
+                bytes,
+                max_bytes,
+            });
+        }
+        let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("cdrf readback"),
-            size: u64::from(padded_bytes_per_row) * u64::from(height),
+            size: bytes,
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
             mapped_at_creation: false,
         });
+        let memory = crate::gpu_data::block_on(memory.pop());
+        let validation = crate::gpu_data::block_on(validation.pop());
+        if let Some(error) = memory.or(validation) {
+            return Err(ReadbackError::Allocate {
+                width,
+                height,
+                bytes,
+                message: error.to_string(),
+            });
+        }
         encoder.copy_texture_to_buffer(
             texture.as_image_copy(),
             wgpu::TexelCopyBufferInfo {

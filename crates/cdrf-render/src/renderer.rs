@@ -471,10 +471,13 @@ fn frame_uniforms(frame: &FrameDesc<'_>) -> Result<GpuFrame, PrepareError> {
     if !frame.view.clip_from_world.is_finite()
         || !to_camera.is_finite()
         || (!is_point && to_camera == Vec3::ZERO)
-        || !frame.exposure.is_finite()
-        || frame.exposure < 0.0
     {
         return Err(PrepareError::BadView);
+    }
+    if !(0.0..=crate::frame::MAX_EXPOSURE).contains(&frame.exposure) {
+        return Err(PrepareError::BadExposure {
+            exposure: frame.exposure,
+        });
     }
     uniforms.to_camera = to_camera;
     uniforms.camera_is_point = u32::from(is_point);

@@ -85,6 +85,9 @@ pub enum CompareError {
         /// What went wrong.
         message: String,
     },
+    /// An output could not be staged or written (the error names it).
+    #[error(transparent)]
+    Output(#[from] crate::outputs::OutputError),
     /// Rendering failed.
     #[error("case {case}: rendering: {message}")]
     Render {
@@ -127,6 +130,11 @@ pub fn read_manifest(path: &Path) -> Result<Vec<CaseSpec>, CompareError> {
     if manifest.case.is_empty() {
         return Err(file_error("no [[case]]".into()));
     }
+    for case in &manifest.case {
+        if let Err(problem) = check_case_name(&case.name) {
+            return Err(file_error(format!("case {:?}: {problem}", case.name)));
+        }
+    }
     let base = path.parent().unwrap_or(Path::new("."));
     Ok(manifest
         .case
@@ -137,6 +145,26 @@ pub fn read_manifest(path: &Path) -> Result<Vec<CaseSpec>, CompareError> {
             name: case.name,
         })
         .collect())
+}
+
+/// A case name becomes a file name (`<name>.png` in `--out`): 1 to 64 ASCII letters, digits,
+/// `_`, `-` and `.`, not starting with `.` — so no `/`, `..` or absolute path can write
+/// outside the output folder.
+fn check_case_name(name: &str) -> Result<(), &'static str> {
+    if name.is_empty() || name.len() > 64 {
+        return Err("a case name must be 1 to 64 characters (it names the figure file)");
+    }
+    if name.starts_with('.')
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
+    {
+        return Err(
+            "a case name may hold only ASCII letters, digits, '_', '-' and '.', and may not \
+             start with '.' (it names the figure file in --out)",
+        );
+    }
+    Ok(())
 }
 
 /// The three models of one fit.
@@ -353,6 +381,22 @@ pub fn run_case(
         path: case.reference.clone(),
         message: e.to_string(),
     })?;
+    if let Some((index, pixel)) = reference
+        .pixels
+        .iter()
+        .enumerate()
+        .find(|(_, pixel)| !pixel.iter().all(|c| c.is_finite()))
+    {
+        let width = reference.width.max(1) as usize;
+        return Err(CompareError::File {
+            path: case.reference.clone(),
+            message: format!(
+                "pixel ({}, {}) is {pixel:?}: every reference pixel must be finite",
+                index % width,
+                index / width
+            ),
+        });
+    }
     if (reference.width, reference.height) != (scene.camera.width, scene.camera.height) {
         return Err(case_error(format!(
             "the reference is {} × {} px but the scene's camera is {} × {}",
@@ -783,30 +827,64 @@ fn write_text(path: &Path, text: &str) -> Result<(), CompareError> {
     })
 }
 
-/// Writes `compare.json`, `compare.md` and `<case>.png` (the figures) into `folder` (each
-/// through a temporary file).
+/// The files a run of `cases` writes: `compare.json`, `compare.md` and `<case>.png` in
+/// `folder`, then the results page if any.
+pub fn output_paths<'a>(
+    folder: &Path,
+    case_names: impl IntoIterator<Item = &'a str>,
+    results_page: Option<&Path>,
+) -> Vec<PathBuf> {
+    let mut paths = vec![folder.join("compare.json"), folder.join("compare.md")];
+    paths.extend(
+        case_names
+            .into_iter()
+            .map(|name| folder.join(format!("{name}.png"))),
+    );
+    paths.extend(results_page.map(Path::to_owned));
+    paths
+}
+
+/// Writes `compare.json`, `compare.md` and `<case>.png` (the figures) into `folder` (all
+/// staged first, renamed into place together: [`crate::outputs::StagedOutputs`]).
 ///
 /// # Errors
-/// [`CompareError::File`] naming the file.
+/// [`CompareError::Output`] naming the file.
 pub fn write_outputs(results: &[CaseResult], folder: &Path) -> Result<Vec<PathBuf>, CompareError> {
+    let paths = output_paths(folder, results.iter().map(|r| r.name.as_str()), None);
+    let staged = crate::outputs::StagedOutputs::new(&paths, &[])?;
+    write_staged(results, folder, None, &staged)?;
+    Ok(staged.commit()?)
+}
+
+/// Writes a run's files into `staged` (made from [`output_paths`] of the same `folder`,
+/// cases and page); the caller commits.
+///
+/// # Errors
+/// [`CompareError`] naming the file.
+pub fn write_staged(
+    results: &[CaseResult],
+    folder: &Path,
+    page: Option<(&Path, &Provenance)>,
+    staged: &crate::outputs::StagedOutputs,
+) -> Result<(), CompareError> {
     let file_error = |path: &Path, message: String| CompareError::File {
         path: path.to_owned(),
         message,
     };
-    std::fs::create_dir_all(folder).map_err(|e| file_error(folder, e.to_string()))?;
-    let mut written = Vec::new();
     let json_path = folder.join("compare.json");
     let json =
         serde_json::to_string_pretty(results).map_err(|e| file_error(&json_path, e.to_string()))?;
-    write_text(&json_path, &json)?;
-    written.push(json_path);
-    let md_path = folder.join("compare.md");
-    write_text(&md_path, &markdown(results))?;
-    written.push(md_path);
+    let text = |path: &Path, text: &str| {
+        staged.write(path, |file| {
+            std::io::Write::write_all(file, text.as_bytes())
+        })
+    };
+    text(&json_path, &json)?;
+    text(&folder.join("compare.md"), &markdown(results))?;
     for result in results {
         let path = folder.join(format!("{}.png", result.name));
         let figure = figure(result);
-        cdrf_core::atomic::write_file(&path, |file| {
+        staged.write(&path, |file| {
             use image::ImageEncoder;
             image::codecs::png::PngEncoder::new(std::io::BufWriter::new(file))
                 .write_image(
@@ -816,11 +894,21 @@ pub fn write_outputs(results: &[CaseResult], folder: &Path) -> Result<Vec<PathBu
                     image::ExtendedColorType::Rgb8,
                 )
                 .map_err(std::io::Error::other)
-        })
-        .map_err(|e| file_error(&path, e.to_string()))?;
-        written.push(path);
+        })?;
     }
-    Ok(written)
+    if let Some((page, provenance)) = page {
+        let page_folder = page.parent().filter(|p| !p.as_os_str().is_empty());
+        let page_folder = page_folder.unwrap_or(Path::new("."));
+        let canonical = |path: &Path| {
+            path.canonicalize().map_err(|e| CompareError::File {
+                path: path.to_owned(),
+                message: e.to_string(),
+            })
+        };
+        let figures = relative_path(&canonical(folder)?, &canonical(page_folder)?);
+        text(page, &results_page(results, &figures, provenance))?;
+    }
+    Ok(())
 }
 
 /// Writes the [`results_page`] to `page`, linking the figures `write_outputs` wrote into

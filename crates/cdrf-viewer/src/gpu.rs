@@ -353,6 +353,15 @@ impl CallbackTrait for ViewCallback {
     }
 }
 
+/// The wgpu setup of every device the viewer creates (window, offscreen UI, UI tests): the
+/// backends cdrf renders on ([`cdrf_render::headless::SUPPORTED_BACKENDS`]; OpenGL refused,
+/// where the shadow-map shaders do not compile), the rest egui-wgpu's defaults.
+pub fn wgpu_setup() -> egui_wgpu::WgpuSetup {
+    let mut create = egui_wgpu::WgpuSetupCreateNew::without_display_handle();
+    create.instance_descriptor.backends = cdrf_render::headless::SUPPORTED_BACKENDS;
+    egui_wgpu::WgpuSetup::CreateNew(create)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

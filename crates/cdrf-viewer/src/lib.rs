@@ -16,6 +16,7 @@ pub mod camera;
 pub mod compare;
 pub mod gpu;
 pub mod offscreen;
+pub mod outputs;
 pub mod panels;
 pub mod pick;
 

@@ -8,9 +8,13 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
 use cdrf_core::scene::Scene;
+use cdrf_core::scene::ShadingSpec;
 use cdrf_render::Options;
-use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
+use cdrf_render::headless::{
+    AdapterPreference, HeadlessDevice, RenderSettings, VULKAN_HINT, render_scene,
+};
 use cdrf_viewer::offscreen::OffscreenUi;
+use cdrf_viewer::outputs::StagedOutputs;
 use cdrf_viewer::{Compare, StartupFiles, ViewerApp};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use image::ImageEncoder;
@@ -84,6 +88,9 @@ struct CompareArgs {
     software: bool,
 }
 
+/// The most frames `render --frames` times (a few minutes at most on a CPU adapter).
+const MAX_TIMED_FRAMES: u32 = 10_000;
+
 #[derive(Args)]
 struct RenderArgs {
     /// Scene file (format: docs/render.md, "Scene files and headless rendering", and the docs of
@@ -94,8 +101,10 @@ struct RenderArgs {
     /// it) or .png (sRGB only).
     #[arg(long, value_name = "OUT.exr|OUT.png")]
     out: PathBuf,
-    /// Render and time this many more frames after a warm-up; report ms per frame.
-    #[arg(long, default_value_t = 0, value_name = "N")]
+    /// Render and time this many more frames after a warm-up; report ms per frame
+    /// (at most 10000).
+    #[arg(long, default_value_t = 0, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_TIMED_FRAMES)))]
     frames: u32,
     /// Print one JSON object on stdout: adapter, width, height, frames, ms_per_frame, outputs.
     #[arg(long)]
@@ -105,7 +114,7 @@ struct RenderArgs {
     software: bool,
 }
 
-#[derive(Args)]
+#[derive(Args, Clone)]
 struct ScreenshotArgs {
     /// Output PNG.
     #[arg(long, value_name = "OUT.png")]
@@ -163,6 +172,20 @@ fn render(args: &RenderArgs) -> anyhow::Result<()> {
         _ => bail!("{}: --out must end in .exr or .png", args.out.display()),
     }
     let scene = Scene::load(&args.render_scene)?;
+    // Every output is checked (not an input, folder writable) and staged before the render.
+    let png = args.out.with_extension("png");
+    let mut output_paths = Vec::new();
+    if args.out.extension().is_some_and(|e| e == "exr") {
+        output_paths.push(args.out.clone());
+    }
+    output_paths.push(png.clone());
+    let mut inputs = vec![args.render_scene.clone(), scene.mesh.path.clone()];
+    match &scene.shading {
+        ShadingSpec::Measured { lut } => inputs.push(lut.clone()),
+        ShadingSpec::Gaussian { parameters } => inputs.push(parameters.clone()),
+        _ => {}
+    }
+    let staged = StagedOutputs::new(&output_paths, &inputs)?;
     let assets = scene.load_assets()?;
     let preference = if args.software {
         AdapterPreference::Software
@@ -176,21 +199,17 @@ fn render(args: &RenderArgs) -> anyhow::Result<()> {
         ..RenderSettings::default()
     };
     let rendered = render_scene(&device, &scene, &assets, &settings)?;
-    create_parent(&args.out)?;
-    let mut outputs: Vec<&Path> = Vec::new();
-    let png = args.out.with_extension("png");
     if args.out.extension().is_some_and(|e| e == "exr") {
         rendered
             .image
-            .write_exr(&args.out)
+            .write_exr(staged.temporary_path(&args.out))
             .with_context(|| format!("writing {}", args.out.display()))?;
-        outputs.push(&args.out);
     }
     rendered
         .image
-        .write_png_srgb(&png)
+        .write_png_srgb(staged.temporary_path(&png))
         .with_context(|| format!("writing {}", png.display()))?;
-    outputs.push(&png);
+    let outputs = staged.commit()?;
 
     if args.json {
         let outputs: Vec<String> = outputs.iter().map(|p| p.display().to_string()).collect();
@@ -259,6 +278,10 @@ fn screenshot(args: &ScreenshotArgs) -> anyhow::Result<()> {
     let files = startup_files(&args.start)?;
     let mut offscreen = OffscreenUi::new([args.size.0, args.size.1], args.scale)?;
     let mut app = ViewerApp::new(offscreen.render_state(), &files);
+    // A screenshot of the start-up files' error is not what was asked for.
+    if let Some(error) = app.error() {
+        bail!("the viewer's start-up files: {error}");
+    }
     // Offscreen frames are not display frames: their intervals and build times mean nothing.
     app.settings_mut().show_timings = false;
     apply_view(&mut app, args.view);
@@ -278,7 +301,7 @@ fn screenshot(args: &ScreenshotArgs) -> anyhow::Result<()> {
 
 fn compare(args: &CompareArgs) -> anyhow::Result<()> {
     use cdrf_viewer::compare::{
-        Models, Provenance, markdown, read_manifest, run_case, write_outputs, write_results_page,
+        Models, Provenance, markdown, output_paths, read_manifest, run_case, write_staged,
     };
     let data = cdrf_viewer::assets::bundled_data_dir();
     let cases_path = args
@@ -296,6 +319,21 @@ fn compare(args: &CompareArgs) -> anyhow::Result<()> {
         cases.retain(|case| args.only.contains(&case.name));
     }
     let models = Models::from_fit_folder(&fit)?;
+    // Every output is checked and staged before the work.
+    let output_paths = output_paths(
+        &args.out,
+        cases.iter().map(|case| case.name.as_str()),
+        args.results.as_deref(),
+    );
+    let mut inputs = vec![
+        cases_path.clone(),
+        fit.join(cdrf_viewer::assets::FIT_LUT_FILE),
+        fit.join(cdrf_viewer::assets::FIT_GAUSSIAN_FILE),
+    ];
+    for case in &cases {
+        inputs.extend([case.scene.clone(), case.reference.clone()]);
+    }
+    let staged = StagedOutputs::new(&output_paths, &inputs)?;
     let preference = if args.software {
         AdapterPreference::Software
     } else {
@@ -314,22 +352,20 @@ fn compare(args: &CompareArgs) -> anyhow::Result<()> {
             args.curvature_smoothing,
         )?);
     }
-    let mut written = write_outputs(&results, &args.out)?;
-    if let Some(page) = &args.results {
-        let provenance = Provenance {
-            command: std::iter::once("cdrf-viewer".to_owned())
-                .chain(std::env::args().skip(1))
-                .collect::<Vec<_>>()
-                .join(" "),
-            adapter: device.adapter_description(),
-            fit: args.fit.as_ref().map_or_else(
-                || "data/wax-fit (the bundled fit)".to_owned(),
-                |fit| fit.display().to_string(),
-            ),
-        };
-        write_results_page(&results, page, &args.out, &provenance)?;
-        written.push(page.clone());
-    }
+    let provenance = args.results.as_ref().map(|_| Provenance {
+        command: std::iter::once("cdrf-viewer".to_owned())
+            .chain(std::env::args().skip(1))
+            .collect::<Vec<_>>()
+            .join(" "),
+        adapter: device.adapter_description(),
+        fit: args.fit.as_ref().map_or_else(
+            || "data/wax-fit (the bundled fit)".to_owned(),
+            |fit| fit.display().to_string(),
+        ),
+    });
+    let page = args.results.as_deref().zip(provenance.as_ref());
+    write_staged(&results, &args.out, page, &staged)?;
+    let written = staged.commit()?;
     println!("{}", markdown(&results));
     for path in written {
         eprintln!("wrote {}", path.display());
@@ -427,6 +463,10 @@ fn window(cli: &Cli) -> anyhow::Result<()> {
     }
     let files = startup_files(&cli.start)?;
     let options = eframe::NativeOptions {
+        wgpu_options: egui_wgpu::WgpuConfiguration {
+            wgpu_setup: cdrf_viewer::gpu::wgpu_setup(),
+            ..Default::default()
+        },
         viewport: egui::ViewportBuilder::default()
             .with_title("cdrf viewer")
             .with_inner_size([1280.0, 720.0])
@@ -460,7 +500,10 @@ fn window(cli: &Cli) -> anyhow::Result<()> {
             }))
         }),
     )
-    .map_err(|error| anyhow::anyhow!("{error}\n\n{NO_DISPLAY_HELP}"))?;
+    .map_err(|error| match error {
+        eframe::Error::Wgpu(error) => anyhow::anyhow!("{error}\n\n{VULKAN_HINT}"),
+        error => anyhow::anyhow!("{error}\n\n{NO_DISPLAY_HELP}"),
+    })?;
     let outcome = lock(&result).take();
     match (outcome, cli.exit_after_frames) {
         (Some(outcome), _) => outcome,
@@ -471,9 +514,45 @@ fn window(cli: &Cli) -> anyhow::Result<()> {
 
 fn run() -> anyhow::Result<()> {
     let cli = Cli::parse();
+    let top_level = [
+        ("--scene", cli.start.scene.is_some()),
+        ("--fit", cli.start.fit.is_some()),
+        ("--exit-after-frames", cli.exit_after_frames.is_some()),
+    ];
+    let given: Vec<&str> = top_level
+        .iter()
+        .filter(|(_, given)| *given)
+        .map(|(flag, _)| *flag)
+        .collect();
+    if !given.is_empty() && matches!(cli.command, Some(Command::Render(_) | Command::Compare(_))) {
+        bail!(
+            "{} before the subcommand: for the window and screenshot only (render takes \
+             --scene after `render`, compare --fit after `compare`)",
+            given.join(", ")
+        );
+    }
     match &cli.command {
         Some(Command::Render(args)) => render(args),
-        Some(Command::Screenshot(args)) => screenshot(args),
+        Some(Command::Screenshot(args)) => {
+            // `cdrf-viewer --scene S screenshot` means `screenshot --scene S`.
+            if cli.exit_after_frames.is_some() {
+                bail!("--exit-after-frames is for the window, not screenshot");
+            }
+            let mut args = args.clone();
+            for (top, own, flag) in [
+                (&cli.start.scene, &mut args.start.scene, "--scene"),
+                (&cli.start.fit, &mut args.start.fit, "--fit"),
+            ] {
+                match (top, &own) {
+                    (Some(_), Some(_)) => {
+                        bail!("{flag} given both before and after `screenshot`: give it once")
+                    }
+                    (Some(top), None) => *own = Some(top.clone()),
+                    _ => {}
+                }
+            }
+            screenshot(&args)
+        }
         Some(Command::Compare(args)) => compare(args),
         None => window(&cli),
     }

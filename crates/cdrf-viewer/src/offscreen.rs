@@ -15,7 +15,8 @@ use crate::app::ViewerApp;
 pub enum OffscreenError {
     /// No adapter or device (the message says which package gives a software one).
     #[error(
-        "no GPU adapter for offscreen rendering ({0}); on Debian/Ubuntu `apt-get install mesa-vulkan-drivers libvulkan1` gives a software one"
+        "no GPU adapter for offscreen rendering ({0}). {hint}",
+        hint = cdrf_render::headless::VULKAN_HINT
     )]
     NoDevice(String),
     /// A size of zero or beyond the device's limit.
@@ -49,9 +50,7 @@ impl OffscreenUi {
     /// # Errors
     /// [`OffscreenError::NoDevice`], [`OffscreenError::BadSize`].
     pub fn new(size_points: [u32; 2], pixels_per_point: f32) -> Result<Self, OffscreenError> {
-        let setup = egui_wgpu::WgpuSetup::CreateNew(
-            egui_wgpu::WgpuSetupCreateNew::without_display_handle(),
-        );
+        let setup = crate::gpu::wgpu_setup();
         let instance = pollster::block_on(setup.new_instance());
         let config = egui_wgpu::WgpuConfiguration {
             wgpu_setup: setup,

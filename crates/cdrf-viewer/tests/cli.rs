@@ -242,3 +242,389 @@ fn window_under_xvfb_takes_a_screenshot() {
         "background {background:?}"
     );
 }
+
+// ---- Hardening (issue 18, part A): no panic, no hang, no file touched that must not be, no
+// half-written run. Each failure exits 1 (2 for a flag clap rejects) with a message naming
+// the file, flag or size.
+
+/// `cdrf-viewer ARGS` in `dir` with extra environment variables.
+fn viewer_with_env(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
+    let runtime = dir.join("xdg-runtime");
+    std::fs::create_dir_all(&runtime).unwrap();
+    Command::new(BINARY)
+        .args(args)
+        .current_dir(dir)
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .envs(env.iter().copied())
+        .output()
+        .unwrap_or_else(|error| panic!("running {BINARY}: {error}"))
+}
+
+/// The command failed with exit code `code`, without a panic, and stderr holds every needle.
+#[track_caller]
+fn assert_fails(output: &Output, code: i32, needles: &[&str]) -> String {
+    let stderr = text(&output.stderr);
+    println!("{stderr}");
+    assert_eq!(output.status.code(), Some(code), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    for needle in needles {
+        assert!(stderr.contains(needle), "stderr lacks {needle:?}: {stderr}");
+    }
+    stderr
+}
+
+/// Files under `dir` (recursively), relative, excluding the runtime folder.
+fn files_under(dir: &Path) -> Vec<PathBuf> {
+    let mut found = Vec::new();
+    let mut stack = vec![dir.to_owned()];
+    while let Some(folder) = stack.pop() {
+        for entry in std::fs::read_dir(&folder).unwrap() {
+            let path = entry.unwrap().path();
+            if path.ends_with("xdg-runtime") {
+                continue;
+            }
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                found.push(path.strip_prefix(dir).unwrap().to_owned());
+            }
+        }
+    }
+    found.sort();
+    found
+}
+
+/// Without a Vulkan driver wgpu would fall back to OpenGL, where the shaders do not compile
+/// (a panic, exit 101): every GPU command refuses it up front and names the packages.
+#[test]
+fn without_vulkan_every_gpu_command_names_the_vulkan_packages() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = small_bunny_scene(dir.path());
+    let no_vulkan = [("VK_ICD_FILENAMES", "/nonexistent")];
+    let hint = "mesa-vulkan-drivers libvulkan1";
+    for args in [
+        vec![
+            "render",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--out",
+            "a.png",
+        ],
+        vec![
+            "render",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--out",
+            "b.png",
+            "--software",
+        ],
+        vec!["screenshot", "--out", "c.png"],
+        vec![
+            "compare",
+            "--case",
+            "sphere_r35",
+            "--size",
+            "128",
+            "--out",
+            "d",
+        ],
+    ] {
+        let output = viewer_with_env(dir.path(), &args, &no_vulkan);
+        assert_fails(&output, 1, &[hint]);
+    }
+    // The window, under a virtual X server.
+    let runtime = dir.path().join("xdg-runtime");
+    let output = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1280x800x24", BINARY])
+        .args(["--exit-after-frames", "3"])
+        .current_dir(dir.path())
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .env("VK_ICD_FILENAMES", "/nonexistent")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap_or_else(|error| panic!("running xvfb-run: {error}"));
+    assert_fails(&output, 1, &[hint]);
+    assert_eq!(files_under(dir.path()), vec![PathBuf::from("bunny.toml")]);
+}
+
+/// `small_bunny_scene` at another size.
+fn bunny_scene_of_size(dir: &Path, width: u32, height: u32) -> PathBuf {
+    let path = small_bunny_scene(dir);
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("width = 256", &format!("width = {width}"))
+        .replace("height = 256", &format!("height = {height}"));
+    let sized = dir.join(format!("bunny_{width}x{height}.toml"));
+    std::fs::write(&sized, text).unwrap();
+    std::fs::remove_file(path).unwrap();
+    sized
+}
+
+/// 6000² failed to map its read-back buffer and 16384² ran out of memory creating the target
+/// (wgpu's uncaptured-error handler panicked): the scene check allows only what the device
+/// can render and read back, and names the size.
+#[test]
+fn render_rejects_sizes_the_device_cannot_render_or_read_back() {
+    let dir = tempfile::tempdir().unwrap();
+    for (width, height) in [(6000, 6000), (16384, 16384), (5800, 5800)] {
+        let scene = bunny_scene_of_size(dir.path(), width, height);
+        let output = viewer(
+            dir.path(),
+            &[
+                "render",
+                "--scene",
+                scene.to_str().unwrap(),
+                "--out",
+                "out.exr",
+                "--software",
+            ],
+        );
+        assert_fails(&output, 1, &[&format!("{width} × {height}")]);
+        assert!(!dir.path().join("out.exr").exists());
+        assert!(!dir.path().join("out.png").exists());
+    }
+}
+
+/// `--frames 4294967295` rendered for hours: the flag is bounded at parse time.
+#[test]
+fn render_frames_is_bounded_when_parsed() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = viewer(
+        dir.path(),
+        &[
+            "render",
+            "--scene",
+            "missing.toml",
+            "--out",
+            "o.png",
+            "--frames",
+            "4294967295",
+        ],
+    );
+    assert_fails(&output, 2, &["--frames", "10000"]);
+}
+
+/// `render --out` the scene's own LUT (or the scene file) replaced the input.
+#[test]
+fn render_refuses_an_output_that_is_one_of_its_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let lut = dir.path().join("lut.exr");
+    std::fs::copy(data_dir().join("wax-fit/measured.exr"), &lut).unwrap();
+    let before = std::fs::read(&lut).unwrap();
+    let scene = small_bunny_scene(dir.path());
+    let text = std::fs::read_to_string(&scene).unwrap().replace(
+        &data_dir()
+            .canonicalize()
+            .unwrap()
+            .join("wax-fit/measured.exr")
+            .display()
+            .to_string(),
+        "lut.exr",
+    );
+    std::fs::write(&scene, text).unwrap();
+    // The same file by another spelling.
+    for out in ["lut.exr", "./sub/../lut.exr"] {
+        std::fs::create_dir_all(dir.path().join("sub")).unwrap();
+        let output = viewer(
+            dir.path(),
+            &[
+                "render",
+                "--scene",
+                "bunny.toml",
+                "--out",
+                out,
+                "--software",
+            ],
+        );
+        assert_fails(&output, 1, &["lut.exr", "input"]);
+        assert_eq!(std::fs::read(&lut).unwrap(), before, "the LUT was replaced");
+    }
+    // A scene named .png is an input too.
+    std::fs::copy(&scene, dir.path().join("scene.png")).unwrap();
+    let output = viewer(
+        dir.path(),
+        &[
+            "render",
+            "--scene",
+            "scene.png",
+            "--out",
+            "scene.exr",
+            "--software",
+        ],
+    );
+    assert_fails(&output, 1, &["scene.png", "input"]);
+    assert!(!dir.path().join("scene.exr").exists());
+}
+
+/// `render --out x.exr` wrote x.exr and then failed on x.png: every output is checked before
+/// the render, and the run's files appear together or not at all.
+#[test]
+fn render_writes_all_its_outputs_or_none() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = small_bunny_scene(dir.path());
+    std::fs::create_dir_all(dir.path().join("out/x.png")).unwrap();
+    let output = viewer(
+        dir.path(),
+        &[
+            "render",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--out",
+            "out/x.exr",
+            "--software",
+        ],
+    );
+    assert_fails(&output, 1, &["x.png"]);
+    assert_eq!(files_under(dir.path()), vec![PathBuf::from("bunny.toml")]);
+    // A parent that does not exist is created; one that is a file is an error naming it.
+    std::fs::write(dir.path().join("file"), "").unwrap();
+    let output = viewer(
+        dir.path(),
+        &[
+            "render",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--out",
+            "file/x.png",
+        ],
+    );
+    assert_fails(&output, 1, &["file"]);
+}
+
+/// A manifest for `compare` in `dir` with one case (the bundled sphere) of this name and
+/// reference.
+fn sphere_manifest(dir: &Path, name: &str, reference: &Path) -> PathBuf {
+    let data = data_dir().canonicalize().unwrap();
+    let manifest = format!(
+        "[[case]]\nname = {name:?}\nscene = {scene:?}\nreference = {reference:?}\n",
+        scene = data.join("scenes/sphere_r35.toml").display().to_string(),
+        reference = reference.display().to_string(),
+    );
+    let path = dir.join("cases.toml");
+    std::fs::write(&path, manifest).unwrap();
+    path
+}
+
+/// Case names became figure paths: `../x` or `/abs` wrote outside `--out`.
+#[test]
+fn compare_rejects_case_names_that_are_not_plain_file_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let work = dir.path().join("work");
+    std::fs::create_dir_all(&work).unwrap();
+    let reference = data_dir()
+        .canonicalize()
+        .unwrap()
+        .join("wax-spheres/sphere_r35.exr");
+    let absolute = dir.path().join("abs").display().to_string();
+    for name in ["../escape", absolute.as_str(), "", ".hidden", "a/b"] {
+        sphere_manifest(&work, name, &reference);
+        let output = viewer(
+            &work,
+            &[
+                "compare",
+                "--cases",
+                "cases.toml",
+                "--size",
+                "128",
+                "--out",
+                "out",
+                "--software",
+            ],
+        );
+        assert_fails(&output, 1, &["cases.toml", &format!("case {name:?}")]);
+        assert_eq!(
+            files_under(dir.path()),
+            vec![PathBuf::from("work/cases.toml")]
+        );
+    }
+}
+
+/// `compare` wrote compare.json and compare.md, then failed on a figure.
+#[test]
+fn compare_writes_all_its_outputs_or_none() {
+    let dir = tempfile::tempdir().unwrap();
+    let reference = data_dir()
+        .canonicalize()
+        .unwrap()
+        .join("wax-spheres/sphere_r35.exr");
+    sphere_manifest(dir.path(), "sphere", &reference);
+    std::fs::create_dir_all(dir.path().join("out/sphere.png")).unwrap();
+    let output = viewer(
+        dir.path(),
+        &[
+            "compare",
+            "--cases",
+            "cases.toml",
+            "--size",
+            "128",
+            "--out",
+            "out",
+            "--software",
+        ],
+    );
+    assert_fails(&output, 1, &["sphere.png"]);
+    assert_eq!(files_under(dir.path()), vec![PathBuf::from("cases.toml")]);
+}
+
+/// One NaN pixel in the reference made every metric `null` in compare.json, exit 0.
+#[test]
+fn compare_rejects_a_non_finite_reference_pixel() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut image =
+        cdrf_core::image_file::RgbaImage::read_exr(data_dir().join("wax-spheres/sphere_r35.exr"))
+            .unwrap();
+    let (x, y) = (300, 200);
+    image.pixels[(y * image.width + x) as usize][1] = f32::NAN;
+    let reference = dir.path().join("nan.exr");
+    image.write_exr(&reference).unwrap();
+    sphere_manifest(dir.path(), "sphere", &reference);
+    let output = viewer(
+        dir.path(),
+        &[
+            "compare",
+            "--cases",
+            "cases.toml",
+            "--size",
+            "128",
+            "--out",
+            "out",
+            "--software",
+        ],
+    );
+    assert_fails(&output, 1, &["nan.exr", "pixel (300, 200)"]);
+    assert_eq!(
+        files_under(dir.path()),
+        vec![PathBuf::from("cases.toml"), PathBuf::from("nan.exr")]
+    );
+}
+
+/// `cdrf-viewer --scene BAD screenshot` ignored the flag; `screenshot --fit BAD` drew the
+/// error into the UI and exited 0.
+#[test]
+fn screenshot_fails_on_start_up_files_it_cannot_use() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = viewer(
+        dir.path(),
+        &["--scene", "bad.toml", "screenshot", "--out", "a.png"],
+    );
+    assert_fails(&output, 1, &["bad.toml"]);
+    let output = viewer(
+        dir.path(),
+        &["--fit", "nofit", "screenshot", "--out", "a.png"],
+    );
+    assert_fails(&output, 1, &["nofit"]);
+    let output = viewer(
+        dir.path(),
+        &["screenshot", "--fit", "nofit", "--out", "a.png"],
+    );
+    assert_fails(&output, 1, &["nofit"]);
+    // Top-level flags belong to the window and screenshot only.
+    let output = viewer(
+        dir.path(),
+        &[
+            "--fit", "nofit", "render", "--scene", "s.toml", "--out", "a.png",
+        ],
+    );
+    assert_fails(&output, 1, &["--fit"]);
+    assert!(!dir.path().join("a.png").exists());
+}
