@@ -242,3 +242,26 @@ fn window_under_xvfb_takes_a_screenshot() {
         "background {background:?}"
     );
 }
+
+#[test]
+fn compare_curvature_smoothing_is_bounded_at_parse_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = viewer(
+        dir.path(),
+        &[
+            "compare",
+            "--cases",
+            "cases.toml",
+            "--out",
+            "out",
+            "--curvature-smoothing",
+            "4294967295",
+        ],
+    );
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--curvature-smoothing") && stderr.contains("1000"),
+        "{stderr}"
+    );
+}
