@@ -350,3 +350,58 @@ fn non_finite_curvature_is_an_error() {
     }
     assert_eq!(cmd.files(), ["huge.obj", "t.obj"]);
 }
+
+#[test]
+fn gltf_node_scale_that_overflows_is_an_error() {
+    let cmd = TestCommand::new();
+    // A tetrahedron (data: URI buffer) under a node scaled by 1e30.
+    let mut buffer = Vec::new();
+    for p in [
+        [0.0f32, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0],
+    ] {
+        for c in p {
+            buffer.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for i in [0u16, 1, 2, 0, 2, 3, 0, 3, 1, 1, 3, 2] {
+        buffer.extend_from_slice(&i.to_le_bytes());
+    }
+    const B64: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut encoded = String::new();
+    for chunk in buffer.chunks(3) {
+        let n = chunk
+            .iter()
+            .enumerate()
+            .fold(0u32, |n, (i, &b)| n | u32::from(b) << (16 - 8 * i));
+        for k in 0..4 {
+            encoded.push(if k <= chunk.len() {
+                B64[(n >> (18 - 6 * k) & 63) as usize] as char
+            } else {
+                '='
+            });
+        }
+    }
+    cmd.write(
+        "scaled.gltf",
+        format!(
+            r#"{{"asset": {{"version": "2.0"}},
+ "buffers": [{{"byteLength": 72, "uri": "data:application/octet-stream;base64,{encoded}"}}],
+ "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 48}},
+                 {{"buffer": 0, "byteOffset": 48, "byteLength": 24}}],
+ "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                 "min": [0, 0, 0], "max": [1, 1, 1]}},
+               {{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}}],
+ "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],
+ "nodes": [{{"mesh": 0, "scale": [1e30, 1e30, 1e30]}}], "scenes": [{{"nodes": [0]}}], "scene": 0}}"#
+        ),
+    );
+    let stderr = cmd.fails(&["scaled.gltf", "--mm-per-unit", "1", "--out", "o.glb"], 1);
+    assert!(
+        stderr.contains("not finite") && stderr.contains("vertex 0"),
+        "{stderr}"
+    );
+    assert_eq!(cmd.files(), ["scaled.gltf"]);
+}
