@@ -101,6 +101,10 @@ impl CurvatureOptions {
     }
 }
 
+/// The most rounds of curvature smoothing accepted (each round averages over the 1-ring; 1000
+/// rounds already spread a value over most of any mesh).
+pub const MAX_SMOOTHING_ITERATIONS: u32 = 1000;
+
 /// Why curvature could not be estimated.
 #[derive(Debug, Error)]
 #[non_exhaustive]
@@ -118,6 +122,27 @@ pub enum CurvatureError {
         vertex: usize,
         /// Its position.
         position: Vec3,
+    },
+    /// More smoothing rounds than [`MAX_SMOOTHING_ITERATIONS`].
+    #[error("{iterations} rounds of curvature smoothing: at most {MAX_SMOOTHING_ITERATIONS}")]
+    TooMuchSmoothing {
+        /// The rounds asked for.
+        iterations: u32,
+    },
+    /// The estimate overflowed: coordinates too large, or `mm_per_unit` too small, for f32.
+    #[error(
+        "curvature at vertex {vertex} (position {position}) is not finite ({value} mm⁻¹ at \
+         mm_per_unit {mm_per_unit}): coordinates too large or mm_per_unit too small for f32"
+    )]
+    NonFiniteCurvature {
+        /// The first such vertex.
+        vertex: usize,
+        /// Its position.
+        position: Vec3,
+        /// The value.
+        value: f32,
+        /// The scale used.
+        mm_per_unit: f32,
     },
     /// A triangle refers to a vertex that does not exist.
     #[error("triangle {triangle} refers to vertex {index}, but there are {vertices} vertices")]
@@ -216,10 +241,19 @@ pub fn mean_curvature_per_mm_welded(
     }
 
     let per_mm = 1.0 / f64::from(options.mm_per_unit);
-    Ok(curvature
+    let curvature: Vec<f32> = curvature
         .into_par_iter()
         .map(|k| (k * per_mm) as f32)
-        .collect())
+        .collect();
+    if let Some(vertex) = curvature.par_iter().position_first(|k| !k.is_finite()) {
+        return Err(CurvatureError::NonFiniteCurvature {
+            vertex,
+            position: positions[vertex],
+            value: curvature[vertex],
+            mm_per_unit: options.mm_per_unit,
+        });
+    }
+    Ok(curvature)
 }
 
 fn check_input(
@@ -230,6 +264,11 @@ fn check_input(
     let mm_per_unit = options.mm_per_unit;
     if !(mm_per_unit.is_finite() && mm_per_unit > 0.0) {
         return Err(CurvatureError::InvalidScale { mm_per_unit });
+    }
+    if options.smoothing_iterations > MAX_SMOOTHING_ITERATIONS {
+        return Err(CurvatureError::TooMuchSmoothing {
+            iterations: options.smoothing_iterations,
+        });
     }
     if let Some(vertex) = positions.par_iter().position_first(|p| !p.is_finite()) {
         return Err(CurvatureError::NonFinitePosition {

@@ -23,13 +23,17 @@ use crate::lut_file::{LutFileError, read_lut};
 #[serde(deny_unknown_fields)]
 pub struct GaussianParameters {
     /// Standard deviation of the scattering Gaussian per RGB channel, mm.
+    #[serde(deserialize_with = "sigma_mm")]
     pub sigma_mm: [f32; 3],
     /// Overall factor per channel (the material's albedo under the LUT convention π·L/E).
+    #[serde(deserialize_with = "scale")]
     pub scale: [f32; 3],
     /// A LUT file (relative to the TOML file) whose view correction g(θ, φ) the model uses.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub view_correction_from: Option<PathBuf>,
 }
+
+crate::exact_array_fields!(sigma_mm: 3, scale: 3);
 
 /// Why a `gaussian.toml` could not be read, used or written.
 #[derive(Debug, Error)]
@@ -142,7 +146,7 @@ impl GaussianParameters {
 /// [`GaussianFileError`] naming the file and the key.
 pub fn read_gaussian(path: impl AsRef<Path>) -> Result<GaussianParameters, GaussianFileError> {
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|error| GaussianFileError::Io {
+    let text = crate::input_file::read_text(path).map_err(|error| GaussianFileError::Io {
         path: path.to_owned(),
         error,
     })?;

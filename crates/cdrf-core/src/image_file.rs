@@ -40,6 +40,15 @@ pub enum ImageFileError {
         /// What the decoder said.
         error: exr::error::Error,
     },
+    /// The image is larger than [`crate::input_file::MAX_IMAGE_PIXELS`] or
+    /// [`crate::input_file::MAX_IMAGE_SIDE_PX`] allow (checked from the headers, before decoding).
+    #[error("{}: {problem}", path.display())]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Which window and which limit.
+        problem: String,
+    },
     /// The image has a zero side or a pixel count that does not match its size.
     #[error("{}: {width} × {height} image with {pixels} pixels", path.display())]
     Shape {
@@ -104,9 +113,30 @@ impl RgbaImage {
     /// as 1 (fully covered).
     ///
     /// # Errors
-    /// [`ImageFileError::Exr`] for a missing, unreadable or non-RGB file.
+    /// [`ImageFileError::Exr`] for an unreadable or non-RGB file;
+    /// [`ImageFileError::Io`] for a missing or special file or one over
+    /// [`crate::input_file::MAX_INPUT_FILE_BYTES`]; [`ImageFileError::TooLarge`] for a data or
+    /// display window over the image limits.
     pub fn read_exr(path: impl AsRef<Path>) -> Result<Self, ImageFileError> {
         let path = path.as_ref();
+        let io_error = |error| ImageFileError::Io {
+            path: path.to_owned(),
+            error,
+        };
+        let file = crate::input_file::open_regular(path, crate::input_file::MAX_INPUT_FILE_BYTES)
+            .map_err(io_error)?;
+        let mut reader = std::io::BufReader::new(file);
+        crate::input_file::check_exr_windows(&mut reader).map_err(|error| match error {
+            crate::input_file::ExrHeaderError::Exr(error) => ImageFileError::Exr {
+                path: path.to_owned(),
+                error,
+            },
+            crate::input_file::ExrHeaderError::TooLarge(problem) => ImageFileError::TooLarge {
+                path: path.to_owned(),
+                problem,
+            },
+        })?;
+        std::io::Seek::rewind(&mut reader).map_err(io_error)?;
         let image = exr::prelude::read()
             .no_deep_data()
             .largest_resolution_level()
@@ -121,7 +151,7 @@ impl RgbaImage {
             )
             .first_valid_layer()
             .all_attributes()
-            .from_file(path)
+            .from_buffered(reader)
             .map_err(|error| ImageFileError::Exr {
                 path: path.to_owned(),
                 error,

@@ -35,6 +35,7 @@ pub mod curvature;
 pub mod gaussian;
 pub mod gaussian_file;
 pub mod image_file;
+pub mod input_file;
 pub mod light;
 pub mod lut;
 pub mod lut_file;

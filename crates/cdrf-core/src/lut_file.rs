@@ -155,9 +155,20 @@ pub fn write_lut(lut: &CdrfLut, path: impl AsRef<Path>) -> Result<(), LutFileErr
 /// version, or holds a malformed table.
 pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|error| LutFileError::Io {
-        path: path.to_path_buf(),
-        error,
+    let bytes = crate::input_file::read_regular(path, crate::input_file::MAX_INPUT_FILE_BYTES)
+        .map_err(|error| LutFileError::Io {
+            path: path.to_path_buf(),
+            error,
+        })?;
+    crate::input_file::check_exr_windows(bytes.as_slice()).map_err(|error| match error {
+        crate::input_file::ExrHeaderError::Exr(error) => LutFileError::Exr {
+            path: path.to_path_buf(),
+            error,
+        },
+        crate::input_file::ExrHeaderError::TooLarge(reason) => LutFileError::NotACdrfLut {
+            path: path.to_path_buf(),
+            reason,
+        },
     })?;
     let image = exr::prelude::read()
         .no_deep_data()

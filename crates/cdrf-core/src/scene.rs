@@ -8,7 +8,7 @@
 //! scale = 1.0                   # optional model transform: uniform scale (default 1)
 //! rotate_deg = [0.0, 0.0, 0.0]  # optional: about x, then y, then z, degrees
 //! translate = [0.0, 0.0, 0.0]   # optional: world units, applied last
-//! curvature_smoothing = 0       # optional: rounds of curvature smoothing (default 0)
+//! curvature_smoothing = 0       # optional: rounds of curvature smoothing (default 0, at most 1000)
 //!
 //! [camera]
 //! projection = "orthographic"   # or "perspective" (then vertical_fov_deg)
@@ -347,9 +347,9 @@ struct RawMesh {
     mm_per_unit: f32,
     #[serde(default = "one")]
     scale: f32,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "rotate_deg")]
     rotate_deg: [f32; 3],
-    #[serde(default)]
+    #[serde(default, deserialize_with = "translate")]
     translate: [f32; 3],
     #[serde(default)]
     curvature_smoothing: u32,
@@ -359,8 +359,11 @@ struct RawMesh {
 #[serde(deny_unknown_fields)]
 struct RawCamera {
     projection: String,
+    #[serde(deserialize_with = "eye")]
     eye: [f32; 3],
+    #[serde(deserialize_with = "target")]
     target: [f32; 3],
+    #[serde(deserialize_with = "up")]
     up: [f32; 3],
     ortho_half_height: Option<f32>,
     vertical_fov_deg: Option<f32>,
@@ -373,7 +376,9 @@ struct RawCamera {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawLight {
+    #[serde(deserialize_with = "to_light")]
     to_light: [f32; 3],
+    #[serde(deserialize_with = "irradiance")]
     irradiance: [f32; 3],
 }
 
@@ -383,13 +388,27 @@ struct RawShading {
     model: String,
     lut: Option<PathBuf>,
     gaussian: Option<PathBuf>,
+    #[serde(default, deserialize_with = "optional::albedo")]
     albedo: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "optional::curvature_range_per_mm")]
     curvature_range_per_mm: Option<[f32; 2]>,
     #[serde(default)]
     shadows: bool,
     #[serde(default)]
     transmission: bool,
 }
+
+crate::exact_array_fields!(
+    rotate_deg: 3,
+    translate: 3,
+    eye: 3,
+    target: 3,
+    up: 3,
+    to_light: 3,
+    irradiance: 3,
+    albedo: 3,
+    curvature_range_per_mm: 2,
+);
 
 fn one() -> f32 {
     1.0
@@ -409,7 +428,7 @@ impl Scene {
     /// [`SceneError`] naming the file and the key.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|error| SceneError::Io {
+        let text = crate::input_file::read_text(path).map_err(|error| SceneError::Io {
             path: path.to_owned(),
             error,
         })?;
@@ -448,6 +467,16 @@ impl Scene {
         }
         if !(m.scale.is_finite() && m.scale > 0.0) {
             return Err(invalid("[mesh] scale", format!("{}: must be > 0", m.scale)));
+        }
+        if m.curvature_smoothing > crate::curvature::MAX_SMOOTHING_ITERATIONS {
+            return Err(invalid(
+                "[mesh] curvature_smoothing",
+                format!(
+                    "{}: at most {} rounds",
+                    m.curvature_smoothing,
+                    crate::curvature::MAX_SMOOTHING_ITERATIONS
+                ),
+            ));
         }
         finite3("[mesh] rotate_deg", m.rotate_deg)?;
         finite3("[mesh] translate", m.translate)?;

@@ -33,11 +33,11 @@
 //! | `[camera]` `projection` | yes | `"orthographic"` (telecentric lens, or a long lens far away) or `"perspective"` |
 //! | `[camera]` `vertical_fov_deg` | with `"perspective"` only | full vertical field of view in degrees, in (0, 180); principal point at the image centre |
 //! | `[light]` `to_light` | yes | direction *toward* the (directional) light in camera space, `[x, y, z]`; normalised on load, must not be zero |
-//! | `[light]` `irradiance` | no, default `[1, 1, 1]` | irradiance per RGB channel on a surface facing the light; radiance is divided by it, so the table is relative to it. Each > 0 |
+//! | `[light]` `irradiance` | no, default `[1, 1, 1]` | irradiance per RGB channel on a surface facing the light; radiance is divided by it, so the table is relative to it. Each in [1e-30, 1e30] |
 //! | `[[sphere]]` | at least one | one table per photograph of one sphere |
-//! | `image` | yes | file name relative to the folder (an absolute path also works); OpenEXR, PNG, JPEG or TIFF |
+//! | `image` | yes | file name relative to the folder, inside it (an absolute path or a `..` that leaves the folder is an error); OpenEXR, PNG, JPEG or TIFF |
 //! | `radius_mm` | yes | the sphere's radius in millimetres, > 0; radii must differ (curvature is 1 / radius) |
-//! | `center_px` | no | centre of the sphere's disk in continuous pixel coordinates `[column, row]`, `(0, 0)` = top-left corner of the top-left pixel; detected from the image if absent |
+//! | `center_px` | no | exactly two numbers: centre of the sphere's disk in continuous pixel coordinates `[column, row]`, `(0, 0)` = top-left corner of the top-left pixel; detected from the image if absent |
 //! | `radius_px` | no | radius of the disk in pixels, > 0; detected if absent |
 //! | `color_space` | no | `"linear"` or `"srgb"`; default: linear for OpenEXR, float TIFF and 16-bit PNG/TIFF, sRGB for 8-bit PNG/JPEG/TIFF (see [`crate::image_io`]) |
 //! | `exposure` | no, default `1` | factor the decoded linear values are multiplied by (e.g. `2` for an image shot one stop darker than the others), > 0 |
@@ -204,7 +204,7 @@ pub enum DatasetError {
         to_light: [f32; 3],
     },
     /// An irradiance channel is not a finite number > 0.
-    #[error("{}: [light] irradiance = {irradiance:?}: every channel must be a finite number > 0", manifest.display())]
+    #[error("{}: [light] irradiance = {irradiance:?}: every channel must be a number in [{MIN_IRRADIANCE:e}, {MAX_IRRADIANCE:e}] (radiance is divided by it)", manifest.display())]
     InvalidIrradiance {
         /// The manifest.
         manifest: PathBuf,
@@ -281,6 +281,16 @@ pub enum DatasetError {
         /// The second entry's radius.
         second_radius_mm: f32,
     },
+    /// An `image` is an absolute path or leaves the data set folder through `..`.
+    #[error("{}: image = {image:?}: {problem}", manifest.display())]
+    ImageOutsideFolder {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The image name as written.
+        image: String,
+        /// Why it is refused.
+        problem: String,
+    },
     /// An image file does not exist (or is not a file).
     #[error("{}: {image}: no image file at {}", manifest.display(), path.display())]
     ImageMissing {
@@ -292,6 +302,12 @@ pub enum DatasetError {
         path: PathBuf,
     },
 }
+
+/// The smallest irradiance channel accepted (radiance is divided by it: below this the table
+/// overflows f32).
+pub const MIN_IRRADIANCE: f32 = 1e-30;
+/// The largest irradiance channel accepted.
+pub const MAX_IRRADIANCE: f32 = 1e30;
 
 /// File extensions counted as images when the manifest is missing.
 const IMAGE_EXTENSIONS: &[&str] = &["exr", "png", "jpg", "jpeg", "tif", "tiff"];
@@ -322,7 +338,9 @@ enum RawProjection {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawLight {
+    #[serde(deserialize_with = "to_light")]
     to_light: [f32; 3],
+    #[serde(default, deserialize_with = "optional::irradiance")]
     irradiance: Option<[f32; 3]>,
 }
 
@@ -331,11 +349,14 @@ struct RawLight {
 struct RawSphere {
     image: String,
     radius_mm: f32,
+    #[serde(default, deserialize_with = "optional::center_px")]
     center_px: Option<[f32; 2]>,
     radius_px: Option<f32>,
     color_space: Option<RawColorSpace>,
     exposure: Option<f32>,
 }
+
+cdrf_core::exact_array_fields!(to_light: 3, irradiance: 3, center_px: 2);
 
 #[derive(Deserialize, Clone, Copy)]
 #[serde(rename_all = "lowercase")]
@@ -365,7 +386,7 @@ impl Dataset {
             Err(error) => return Err(DatasetError::Read { path: dir, error }),
         }
         let manifest = dir.join(MANIFEST_FILE_NAME);
-        let text = match std::fs::read_to_string(&manifest) {
+        let text = match cdrf_core::input_file::read_text(&manifest) {
             Ok(text) => text,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 let (images_found, example_image) = count_images(&dir)?;
@@ -474,7 +495,10 @@ fn validate(raw: RawManifest, dir: PathBuf, manifest: PathBuf) -> Result<Dataset
     }
     let to_light = (to_light / largest).normalize();
     let irradiance = raw.light.irradiance.unwrap_or([1.0; 3]);
-    if !irradiance.iter().all(|&c| positive(c)) {
+    if !irradiance
+        .iter()
+        .all(|&c| (MIN_IRRADIANCE..=MAX_IRRADIANCE).contains(&c))
+    {
         return Err(DatasetError::InvalidIrradiance {
             manifest,
             irradiance,
@@ -538,8 +562,18 @@ fn validate(raw: RawManifest, dir: PathBuf, manifest: PathBuf) -> Result<Dataset
                 });
             }
         }
+        let path = match cdrf_core::input_file::resolve_inside(&dir, &image) {
+            Ok(path) => path,
+            Err(problem) => {
+                return Err(DatasetError::ImageOutsideFolder {
+                    manifest,
+                    image,
+                    problem,
+                });
+            }
+        };
         spheres.push(SphereEntry {
-            image: dir.join(&image),
+            image: path,
             image_name: image,
             radius_mm: s.radius_mm,
             center_px: s.center_px.map(Vec2::from_array),

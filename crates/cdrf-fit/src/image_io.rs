@@ -33,6 +33,9 @@
 //!   a renderer's alpha is coverage, and its colour is already what the camera saw).
 //! - OpenEXR: the first layer with `R`, `G` and `B` channels is read (luminance-only `Y` files are
 //!   not supported); pixels are placed in the display window (outside the data window: 0).
+//!   Data and display windows are checked from the headers before anything is allocated: at most
+//!   65536 px a side and 16384² pixels ([`cdrf_core::input_file`]); a file must be a regular
+//!   file of at most 1 GiB.
 //!
 //! # Saturation
 //! A pixel is saturated if any colour channel of its *stored integer code* is at the top of the
@@ -175,6 +178,15 @@ pub enum ImageError {
         /// The decoder's message.
         message: String,
     },
+    /// The image is larger than the documented limits (checked before decoding; see
+    /// [`cdrf_core::input_file`]: 65536 px a side, 16384² pixels).
+    #[error("{}: {problem}", path.display())]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Which window or size, and the limit.
+        problem: String,
+    },
     /// Some pixels are NaN or infinite.
     #[error(
         "{}: {count} pixel(s) are NaN or infinite (first at column {first_x}, row {first_y}, \
@@ -220,13 +232,33 @@ pub fn load_linear_image(
             exposure,
         });
     }
-    let mut file = File::open(path).map_err(|error| read_error(path, error))?;
+    let mut file =
+        cdrf_core::input_file::open_regular(path, cdrf_core::input_file::MAX_INPUT_FILE_BYTES)
+            .map_err(|error| read_error(path, error))?;
     let mut magic = [0_u8; 8];
     let magic_len = read_prefix(&mut file, &mut magic).map_err(|error| read_error(path, error))?;
     let magic = &magic[..magic_len];
     file.seek(SeekFrom::Start(0))
         .map_err(|error| read_error(path, error))?;
-    let reader = BufReader::new(file);
+    let mut reader = BufReader::new(file);
+    if matches!(detect(magic), Some(Detected::Exr)) {
+        // The windows decide the allocation: check them from the headers first.
+        cdrf_core::input_file::check_exr_windows(&mut reader).map_err(|error| match error {
+            cdrf_core::input_file::ExrHeaderError::TooLarge(problem) => ImageError::TooLarge {
+                path: path.to_path_buf(),
+                problem,
+            },
+            cdrf_core::input_file::ExrHeaderError::Exr(error) => exr_error(path, error),
+            _ => ImageError::Decode {
+                path: path.to_path_buf(),
+                format: "OpenEXR",
+                message: error.to_string(),
+            },
+        })?;
+        reader
+            .seek(SeekFrom::Start(0))
+            .map_err(|error| read_error(path, error))?;
+    }
 
     let (image, format) = match detect(magic) {
         Some(Detected::Exr) => (decode_exr(path, reader, color_space, exposure)?, "OpenEXR"),

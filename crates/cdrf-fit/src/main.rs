@@ -8,13 +8,18 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use cdrf_fit::curves::ViewModel;
 use cdrf_fit::dataset::Dataset;
 use cdrf_fit::fit::Progress;
 use cdrf_fit::outputs::{check_output_dir, view_model_name, write_outputs};
 use cdrf_fit::{FitOptions, fit_dataset};
 use clap::{Parser, ValueEnum};
+
+/// The most θ columns accepted (0.05° apart).
+const MAX_THETA_COUNT: u32 = 3601;
+/// The most curvature rows accepted.
+const MAX_CURVATURE_COUNT: u32 = 1024;
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// Fit a measured curvature-dependent reflectance function (CDRF) look-up table to
@@ -35,12 +40,14 @@ struct Args {
     /// θ-dependent correction (lower residual on translucent materials).
     #[arg(long, value_enum, default_value_t = ViewModelArg::ThetaPhi)]
     view_model: ViewModelArg,
-    /// Columns of the table over θ ∈ [0°, 180°] (361 = 0.5° apart).
-    #[arg(long, default_value_t = FitOptions::default().curves.theta_count)]
-    theta_count: usize,
-    /// Rows of the table over the measured curvature range.
-    #[arg(long, default_value_t = FitOptions::default().curvature_count)]
-    curvature_count: usize,
+    /// Columns of the table over θ ∈ [0°, 180°] (361 = 0.5° apart), 19…3601.
+    #[arg(long, default_value_t = FitOptions::default().curves.theta_count as u32,
+          value_parser = clap::value_parser!(u32).range(19..=i64::from(MAX_THETA_COUNT)))]
+    theta_count: u32,
+    /// Rows of the table over the measured curvature range, 2…1024.
+    #[arg(long, default_value_t = FitOptions::default().curvature_count as u32,
+          value_parser = clap::value_parser!(u32).range(2..=i64::from(MAX_CURVATURE_COUNT)))]
+    curvature_count: u32,
     /// Print nothing but errors (and the --json summary).
     #[arg(long, short)]
     quiet: bool,
@@ -71,25 +78,13 @@ fn main() -> ExitCode {
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
-    if args.theta_count < 19 {
-        bail!(
-            "--theta-count {}: need at least 19 (10° apart)",
-            args.theta_count
-        );
-    }
-    if args.curvature_count < 2 {
-        bail!(
-            "--curvature-count {}: need at least 2",
-            args.curvature_count
-        );
-    }
     let mut options = FitOptions::default();
-    options.curves.theta_count = args.theta_count;
+    options.curves.theta_count = args.theta_count as usize;
     options.curves.view_model = match args.view_model {
         ViewModelArg::Phi => ViewModel::Phi,
         ViewModelArg::ThetaPhi => ViewModel::ThetaPhi,
     };
-    options.curvature_count = args.curvature_count;
+    options.curvature_count = args.curvature_count as usize;
 
     let dataset = Dataset::load(&args.dir)?;
     check_output_dir(&dataset.dir, &args.out)?;

@@ -404,6 +404,12 @@ pub fn check_output_dir(dataset_dir: &Path, out_dir: &Path) -> Result<(), Output
 /// Writes every output of `fit` into `out_dir` (created if missing). Returns the files written
 /// and the report.
 ///
+/// The set is written whole into a staging folder `out_dir/.cdrf-partial-*` and only then moved
+/// in, file by file (renames within one folder), while an exclusive lock on `out_dir` is held:
+/// a second fit into the same folder waits, so two runs never mix their files, and a run killed
+/// while writing leaves the previous set as it was (its staging folder is removed by the next
+/// run, as are other stale `.cdrf-partial-*` files).
+///
 /// # Errors
 /// When `out_dir` is the data set folder, or a file cannot be written.
 pub fn write_outputs(
@@ -412,10 +418,73 @@ pub fn write_outputs(
     out_dir: &Path,
 ) -> Result<(Vec<PathBuf>, Report), OutputError> {
     check_output_dir(dataset_dir, out_dir)?;
-    std::fs::create_dir_all(out_dir).map_err(|error| OutputError::Io {
+    let io_error = |path: &Path| {
+        let path = path.to_path_buf();
+        move |error| OutputError::Io { path, error }
+    };
+    std::fs::create_dir_all(out_dir).map_err(io_error(out_dir))?;
+    // One run at a time per folder: a second fit into the same OUTDIR waits here (the lock is
+    // released when `lock` is dropped, also when the process is killed).
+    let lock = std::fs::File::open(out_dir).map_err(io_error(out_dir))?;
+    lock.lock().map_err(io_error(out_dir))?;
+    remove_stale_partials(out_dir)?;
+    // Every file is written into a fresh staging folder first and moved in only when all are
+    // complete, so a kill during the (slow) writing leaves the old set untouched.
+    let staging = out_dir.join(format!(
+        ".cdrf-partial-{}-{}",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos())
+    ));
+    std::fs::create_dir(&staging).map_err(io_error(&staging))?;
+    let result = write_set(fit, dataset_dir, &staging);
+    let moved = result.and_then(|(names, report)| {
+        let mut written = Vec::with_capacity(names.len());
+        for name in names {
+            let target = out_dir.join(&name);
+            std::fs::rename(staging.join(&name), &target).map_err(io_error(&target))?;
+            written.push(target);
+        }
+        Ok((written, report))
+    });
+    let _ = std::fs::remove_dir_all(&staging);
+    drop(lock);
+    moved
+}
+
+/// Removes `.cdrf-partial-*` files and folders that killed runs left in `out_dir` (called with
+/// the folder's lock held, so no live fit's staging folder is among them).
+fn remove_stale_partials(out_dir: &Path) -> Result<(), OutputError> {
+    let entries = std::fs::read_dir(out_dir).map_err(|error| OutputError::Io {
         path: out_dir.to_path_buf(),
         error,
     })?;
+    for entry in entries.flatten() {
+        if !entry
+            .file_name()
+            .to_string_lossy()
+            .starts_with(".cdrf-partial-")
+        {
+            continue;
+        }
+        let path = entry.path();
+        let removed = if entry.file_type().is_ok_and(|t| t.is_dir()) {
+            std::fs::remove_dir_all(&path)
+        } else {
+            std::fs::remove_file(&path)
+        };
+        removed.map_err(|error| OutputError::Io { path, error })?;
+    }
+    Ok(())
+}
+
+/// Writes the run's files into `out_dir` (the staging folder); returns their names.
+fn write_set(
+    fit: &Fit,
+    dataset_dir: &Path,
+    out_dir: &Path,
+) -> Result<(Vec<String>, Report), OutputError> {
     let view_model = fit.curves.chosen.settings.view_model;
     let lut = fit
         .lut
@@ -425,11 +494,11 @@ pub fn write_outputs(
         .with_provenance("view_model", view_model_name(view_model));
     let lut_path = out_dir.join(MEASURED_LUT);
     cdrf_core::lut_file::write_lut(&lut, &lut_path)?;
-    let mut written = vec![lut_path];
+    let mut written = vec![MEASURED_LUT.to_owned()];
     let mut put = |name: &str, bytes: &[u8]| -> Result<(), OutputError> {
         let path = out_dir.join(name);
         write_bytes(&path, bytes)?;
-        written.push(path);
+        written.push(name.to_owned());
         Ok(())
     };
 

@@ -286,3 +286,122 @@ fn bad_arguments_fail_clearly() {
     assert!(stderr.contains("no/dir/out.csv: cannot write"), "{stderr}");
     assert!(cmd.files().is_empty(), "{:?}", cmd.files());
 }
+
+// ---------------------------------------------------------------------------------------------
+// Hardening (issue 18, part B)
+
+#[test]
+fn smoothing_is_bounded_at_parse_time() {
+    let cmd = TestCommand::new();
+    let mesh = cmd.write("t.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let mesh = mesh.to_str().unwrap();
+    let stderr = cmd.fails(
+        &[
+            mesh,
+            "--mm-per-unit",
+            "1",
+            "--smoothing",
+            "4294967295",
+            "--out",
+            "o.glb",
+        ],
+        2,
+    );
+    assert!(
+        stderr.contains("--smoothing") && stderr.contains("1000"),
+        "{stderr}"
+    );
+    assert_eq!(cmd.files(), ["t.obj"]);
+}
+
+#[test]
+fn output_that_is_the_input_is_refused() {
+    let cmd = TestCommand::new();
+    std::fs::copy(bunny(), cmd.path("in.obj")).unwrap();
+    let before = std::fs::read(cmd.path("in.obj")).unwrap();
+    // Export the bunny as GLB, then try to overwrite it in place, also through another name.
+    cmd.ok(&["in.obj", "--mm-per-unit", "10", "--out", "in.glb"]);
+    let glb = std::fs::read(cmd.path("in.glb")).unwrap();
+    for out in ["in.glb", "./in.glb"] {
+        let stderr = cmd.fails(&["in.glb", "--mm-per-unit", "10", "--out", out], 1);
+        assert!(stderr.contains("is the input"), "{stderr}");
+    }
+    assert_eq!(std::fs::read(cmd.path("in.glb")).unwrap(), glb);
+    assert_eq!(std::fs::read(cmd.path("in.obj")).unwrap(), before);
+}
+
+#[test]
+fn non_finite_curvature_is_an_error() {
+    let cmd = TestCommand::new();
+    cmd.write(
+        "huge.obj",
+        "v 0 0 0\nv 1e38 0 0\nv 0 1e38 0\nv 0 0 1e38\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+    );
+    cmd.write(
+        "t.obj",
+        "v 0 0 1\nv 1 0 0\nv 0 1 0\nv 0 0 0\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n",
+    );
+    for (mesh, scale) in [("huge.obj", "1"), ("t.obj", "1e-45")] {
+        let stderr = cmd.fails(&[mesh, "--mm-per-unit", scale, "--out", "o.csv"], 1);
+        assert!(
+            stderr.contains("not finite") && stderr.contains("vertex"),
+            "{stderr}"
+        );
+    }
+    assert_eq!(cmd.files(), ["huge.obj", "t.obj"]);
+}
+
+#[test]
+fn gltf_node_scale_that_overflows_is_an_error() {
+    let cmd = TestCommand::new();
+    // A tetrahedron (data: URI buffer) under a node scaled by 1e30.
+    let mut buffer = Vec::new();
+    for p in [
+        [0.0f32, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0],
+    ] {
+        for c in p {
+            buffer.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for i in [0u16, 1, 2, 0, 2, 3, 0, 3, 1, 1, 3, 2] {
+        buffer.extend_from_slice(&i.to_le_bytes());
+    }
+    const B64: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut encoded = String::new();
+    for chunk in buffer.chunks(3) {
+        let n = chunk
+            .iter()
+            .enumerate()
+            .fold(0u32, |n, (i, &b)| n | u32::from(b) << (16 - 8 * i));
+        for k in 0..4 {
+            encoded.push(if k <= chunk.len() {
+                B64[(n >> (18 - 6 * k) & 63) as usize] as char
+            } else {
+                '='
+            });
+        }
+    }
+    cmd.write(
+        "scaled.gltf",
+        format!(
+            r#"{{"asset": {{"version": "2.0"}},
+ "buffers": [{{"byteLength": 72, "uri": "data:application/octet-stream;base64,{encoded}"}}],
+ "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 48}},
+                 {{"buffer": 0, "byteOffset": 48, "byteLength": 24}}],
+ "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                 "min": [0, 0, 0], "max": [1, 1, 1]}},
+               {{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}}],
+ "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],
+ "nodes": [{{"mesh": 0, "scale": [1e30, 1e30, 1e30]}}], "scenes": [{{"nodes": [0]}}], "scene": 0}}"#
+        ),
+    );
+    let stderr = cmd.fails(&["scaled.gltf", "--mm-per-unit", "1", "--out", "o.glb"], 1);
+    assert!(
+        stderr.contains("not finite") && stderr.contains("vertex 0"),
+        "{stderr}"
+    );
+    assert_eq!(cmd.files(), ["scaled.gltf"]);
+}

@@ -813,3 +813,128 @@ fn help_mentions_the_manifest() {
     assert!(run.stdout.contains("cdrf-dataset.toml"), "{}", run.stdout);
     assert!(run.stdout.contains("--out"), "{}", run.stdout);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Hardening (issue 18, part B)
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+}
+
+#[test]
+fn exr_windows_over_the_limit_are_refused_before_decoding() {
+    for (name, window) in [
+        ("exr_huge_datawindow.exr", "data window"),
+        ("exr_display_30000.exr", "display window"),
+    ] {
+        let cmd = TestCommand::new();
+        let image = cmd.copy_sphere(15);
+        std::fs::copy(fixture(name), cmd.data().join(name)).expect("copy fixture");
+        cmd.write_manifest(&[sphere(&image, 15.0, ""), sphere(name, 30.0, "")]);
+        cmd.fails(&[], &[name, window, "limit"]);
+    }
+}
+
+#[test]
+fn counts_out_of_bounds_are_usage_errors_naming_the_flag() {
+    let cmd = TestCommand::with_spheres(&[15, 50]);
+    for (flag, value) in [
+        ("--theta-count", "4294967295"),
+        ("--theta-count", "18"),
+        ("--curvature-count", "100000000"),
+        ("--curvature-count", "1"),
+    ] {
+        let run = cmd.run(&[flag, value]);
+        assert_eq!(run.status.code(), Some(2), "{flag} {value}: {}", run.stderr);
+        assert!(
+            run.stderr.contains(flag) && run.stderr.contains(value),
+            "{flag} {value}: {}",
+            run.stderr
+        );
+        assert!(cmd.out_files().is_empty());
+    }
+}
+
+#[test]
+fn arrays_of_the_wrong_length_are_errors() {
+    let cmd = TestCommand::new();
+    let image = cmd.copy_sphere(15);
+    let other = cmd.copy_sphere(50);
+    cmd.write_manifest(&[
+        sphere(&image, 15.0, "center_px = [1.0, 2.0, 3.0]\n"),
+        sphere(&other, 50.0, ""),
+    ]);
+    cmd.fails(&[], &[&cmd.manifest(), "center_px", "exactly 2", "3"]);
+    cmd.write(
+        MANIFEST,
+        format!(
+            "[camera]\nprojection = \"orthographic\"\n[light]\nto_light = [-1.0, 0.0, 0.0, 1.0]\n{}",
+            sphere(&image, 15.0, "")
+        ),
+    );
+    cmd.fails(&[], &[&cmd.manifest(), "to_light", "exactly 3", "4"]);
+    cmd.write(
+        MANIFEST,
+        format!(
+            "[camera]\nprojection = \"orthographic\"\n[light]\nto_light = [-1.0, 0.0, 0.0]\nirradiance = [1.0, 1.0, 1.0, 1.0]\n{}",
+            sphere(&image, 15.0, "")
+        ),
+    );
+    cmd.fails(&[], &[&cmd.manifest(), "irradiance", "exactly 3", "4"]);
+}
+
+#[test]
+fn irradiance_outside_the_usable_range_is_named() {
+    let cmd = TestCommand::new();
+    let image = cmd.copy_sphere(15);
+    let other = cmd.copy_sphere(50);
+    cmd.write(
+        MANIFEST,
+        format!(
+            "[camera]\nprojection = \"orthographic\"\n[light]\nto_light = [-1.0, 0.0, 0.0]\nirradiance = [1e-40, 1.0, 1.0]\n{}{}",
+            sphere(&image, 15.0, ""),
+            sphere(&other, 50.0, "")
+        ),
+    );
+    let stderr = cmd.fails(&[], &[&cmd.manifest(), "irradiance", "1e-30"]);
+    assert!(!stderr.contains("NaN"), "{stderr}");
+}
+
+#[test]
+fn images_must_be_inside_the_data_set_folder() {
+    let cmd = TestCommand::new();
+    let image = cmd.copy_sphere(15);
+    std::fs::copy(
+        bundled("sphere_r50.exr"),
+        cmd.root.path().join("outside.exr"),
+    )
+    .unwrap();
+    let absolute = cmd.root.path().join("outside.exr").display().to_string();
+    for (name, expected) in [
+        ("../outside.exr", "leaves"),
+        (absolute.as_str(), "absolute"),
+    ] {
+        cmd.write_manifest(&[sphere(&image, 15.0, ""), sphere(name, 50.0, "")]);
+        cmd.fails(&[], &[&cmd.manifest(), "image", expected]);
+    }
+}
+
+#[test]
+fn stale_partial_files_are_cleaned_and_outputs_come_as_one_set() {
+    let cmd = TestCommand::with_spheres(&[15, 50]);
+    std::fs::create_dir(cmd.out()).unwrap();
+    std::fs::write(cmd.out().join(".cdrf-partial-abc123"), b"killed run").unwrap();
+    std::fs::write(cmd.out().join("keep.txt"), b"the user's").unwrap();
+    cmd.ok(&[]);
+    let mut expected: Vec<String> = OUTPUTS.iter().map(|s| s.to_string()).collect();
+    expected.push("keep.txt".to_owned());
+    expected.sort();
+    assert_eq!(cmd.out_files(), expected);
+    let siblings = list(cmd.root.path());
+    assert!(
+        siblings.iter().all(|n| !n.starts_with(".cdrf-")),
+        "left beside OUTDIR: {siblings:?}"
+    );
+}

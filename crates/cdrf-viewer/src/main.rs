@@ -80,8 +80,10 @@ struct CompareArgs {
     /// Only the named case (repeatable).
     #[arg(long = "case", value_name = "NAME")]
     only: Vec<String>,
-    /// Override every scene's `[mesh] curvature_smoothing` (rounds of curvature smoothing).
-    #[arg(long, value_name = "N")]
+    /// Override every scene's `[mesh] curvature_smoothing` (rounds of curvature smoothing,
+    /// at most 1000).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32)
+        .range(0..=i64::from(cdrf_core::curvature::MAX_SMOOTHING_ITERATIONS)))]
     curvature_smoothing: Option<u32>,
     /// Insist on a software adapter (lavapipe).
     #[arg(long)]

@@ -628,3 +628,26 @@ fn screenshot_fails_on_start_up_files_it_cannot_use() {
     assert_fails(&output, 1, &["--fit"]);
     assert!(!dir.path().join("a.png").exists());
 }
+
+#[test]
+fn compare_curvature_smoothing_is_bounded_at_parse_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = viewer(
+        dir.path(),
+        &[
+            "compare",
+            "--cases",
+            "cases.toml",
+            "--out",
+            "out",
+            "--curvature-smoothing",
+            "4294967295",
+        ],
+    );
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--curvature-smoothing") && stderr.contains("1000"),
+        "{stderr}"
+    );
+}

@@ -16,6 +16,8 @@ use super::{LoadError, MeshData};
 const MAX_NODE_DEPTH: usize = 256;
 /// The most node instances visited (guards against shared-subtree explosions).
 const MAX_NODE_INSTANCES: usize = 1 << 20;
+/// The most vertices (and, separately, triangle corners / 3) after instancing: 2²⁴.
+pub const MAX_MESH_VERTICES: usize = 1 << 24;
 
 /// Reads the default scene's triangle primitives into unchecked [`MeshData`].
 pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
@@ -23,10 +25,11 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
         path: path.to_owned(),
         problem,
     };
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
-        path: path.to_owned(),
-        source,
-    })?;
+    let bytes = crate::input_file::read_regular(path, crate::input_file::MAX_INPUT_FILE_BYTES)
+        .map_err(|source| LoadError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
     check_glb_header(&bytes).map_err(data_error)?;
     let gltf_error = |source| LoadError::Gltf {
         path: path.to_owned(),
@@ -85,6 +88,29 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
             }
         }
         None => instances.extend(document.meshes().map(|m| (m, Mat4::IDENTITY))),
+    }
+
+    // Count what instancing expands to before building anything.
+    let (mut vertices, mut corners) = (0usize, 0usize);
+    for (mesh, _) in &instances {
+        for primitive in mesh.primitives() {
+            if let Some(accessor) = primitive.get(&gltf::Semantic::Positions) {
+                vertices = vertices.saturating_add(accessor.count());
+                corners = corners.saturating_add(
+                    primitive
+                        .indices()
+                        .map_or(accessor.count(), |indices| indices.count()),
+                );
+            }
+        }
+    }
+    if vertices > MAX_MESH_VERTICES || corners / 3 > MAX_MESH_VERTICES {
+        return Err(data_error(format!(
+            "{} mesh instances expand to {vertices} vertices and {} triangles; the limit is \
+             {MAX_MESH_VERTICES} of each (after node instancing)",
+            instances.len(),
+            corners / 3
+        )));
     }
 
     let mut data = MeshData::default();
@@ -260,8 +286,10 @@ fn load_buffers(
                     let relative = percent_decode(uri).ok_or_else(|| {
                         data_error(format!("buffer {index}: malformed URI {uri:?}"))
                     })?;
-                    let file = base.join(relative);
-                    std::fs::read(&file).map_err(|source| LoadError::Io { path: file, source })?
+                    let file = crate::input_file::resolve_inside(base, &relative)
+                        .map_err(|e| data_error(format!("buffer {index}: {e}")))?;
+                    crate::input_file::read_regular(&file, crate::input_file::MAX_INPUT_FILE_BYTES)
+                        .map_err(|source| LoadError::Io { path: file, source })?
                 }
             }
         };

@@ -25,6 +25,14 @@ pub enum LoadError {
         /// The I/O error.
         source: std::io::Error,
     },
+    /// An OBJ file holds bytes that are not UTF-8 text outside a comment (a binary file?).
+    #[error("{}: not UTF-8 text at line {line} (a binary file, or another encoding?)", path.display())]
+    NotText {
+        /// The file.
+        path: PathBuf,
+        /// The first such line, 1-based.
+        line: usize,
+    },
     /// The OBJ parser rejected the file.
     #[error("{}: invalid OBJ", path.display())]
     Obj {
@@ -72,7 +80,14 @@ impl Mesh {
     ///   no scene), with the node's world transform applied (normals with its inverse-transpose;
     ///   mirroring transforms keep outward winding). `TEXCOORD_0` is kept only if every primitive
     ///   has it. Images are never decoded. Buffers may be the GLB chunk, `data:` base64 URIs or
-    ///   files relative to the glTF file.
+    ///   files relative to the glTF file **inside its own folder**: an absolute URI or one whose
+    ///   `..` leaves the folder is an error, so a model from elsewhere cannot make a tool read
+    ///   other files.
+    ///
+    /// # Limits
+    /// Every file read (the mesh, a buffer file) must be a regular file of at most
+    /// [`crate::input_file::MAX_INPUT_FILE_BYTES`] (1 GiB); a glTF may expand through node
+    /// instancing to at most 2²⁴ vertices and 2²⁴ triangles, counted before anything is built.
     ///
     /// # Errors
     /// [`LoadError`], naming the file: unknown extension, unreadable file, parse failure,

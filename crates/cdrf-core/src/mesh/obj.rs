@@ -1,7 +1,5 @@
 //! OBJ loading through `tobj`.
 
-use std::fs::File;
-use std::io::BufReader;
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
@@ -10,9 +8,14 @@ use super::{LoadError, MeshData};
 
 /// Reads every object of an OBJ file into unchecked [`MeshData`].
 pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
-    let file = File::open(path).map_err(|source| LoadError::Io {
+    let bytes = crate::input_file::read_regular(path, crate::input_file::MAX_INPUT_FILE_BYTES)
+        .map_err(|source| LoadError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+    let text = utf8_text(&bytes).map_err(|line| LoadError::NotText {
         path: path.to_owned(),
-        source,
+        line,
     })?;
     let options = tobj::LoadOptions {
         single_index: true,
@@ -21,7 +24,7 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
         ignore_lines: true,
     };
     // Materials are irrelevant here: a loader that fails only records a material error.
-    let (models, _materials) = tobj::load_obj_buf(&mut BufReader::new(file), &options, |_| {
+    let (models, _materials) = tobj::load_obj_buf(&mut text.as_bytes(), &options, |_| {
         Err(tobj::LoadError::OpenFileFailed)
     })
     .map_err(|source| LoadError::Obj {
@@ -82,4 +85,23 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
     data.normals = (all_normals || any_normals).then_some(normals);
     data.uvs = (all_uvs && !uvs.is_empty()).then_some(uvs);
     Ok(data)
+}
+
+/// The file as text: comment lines (`#`) may hold any bytes (read lossily, an editor's Latin-1
+/// comment is harmless); elsewhere invalid UTF-8 is refused with its 1-based line.
+fn utf8_text(bytes: &[u8]) -> Result<String, usize> {
+    if let Ok(text) = std::str::from_utf8(bytes) {
+        return Ok(text.to_owned());
+    }
+    let mut text = String::with_capacity(bytes.len());
+    for (index, line) in bytes.split_inclusive(|&b| b == b'\n').enumerate() {
+        match std::str::from_utf8(line) {
+            Ok(line) => text.push_str(line),
+            Err(_) if line.trim_ascii_start().starts_with(b"#") => {
+                text.push_str(&String::from_utf8_lossy(line));
+            }
+            Err(_) => return Err(index + 1),
+        }
+    }
+    Ok(text)
 }

@@ -13,7 +13,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
-use cdrf_core::curvature::{CurvatureOptions, mean_curvature_per_mm, mean_curvature_per_mm_welded};
+use cdrf_core::curvature::{
+    CurvatureOptions, MAX_SMOOTHING_ITERATIONS, mean_curvature_per_mm, mean_curvature_per_mm_welded,
+};
 use cdrf_core::mesh::{Mesh, write_glb_with_curvature};
 use clap::Parser;
 
@@ -30,8 +32,9 @@ struct Args {
     /// welded vertex).
     #[arg(long, value_name = "OUT")]
     out: PathBuf,
-    /// Rounds of area-weighted 1-ring smoothing of the curvature.
-    #[arg(long, value_name = "N", default_value_t = 0)]
+    /// Rounds of area-weighted 1-ring smoothing of the curvature (at most 1000).
+    #[arg(long, value_name = "N", default_value_t = 0,
+          value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_SMOOTHING_ITERATIONS)))]
     smoothing: u32,
 }
 
@@ -70,6 +73,18 @@ impl Config {
             bail!(
                 "--mm-per-unit {}: must be a finite number > 0",
                 args.mm_per_unit
+            );
+        }
+        // Never replace the input: compare canonical paths (an existing --out only).
+        if let (Ok(input), Ok(output)) = (
+            std::fs::canonicalize(&args.mesh),
+            std::fs::canonicalize(&args.out),
+        ) && input == output
+        {
+            bail!(
+                "--out {}: is the input mesh {}; choose another output file",
+                args.out.display(),
+                args.mesh.display()
             );
         }
         Ok(Self {
