@@ -64,7 +64,7 @@ cargo test --workspace --locked -- --show-output
 section "cargo package (the four crates package on their own)"
 # --no-verify: packaging checks that each crate's manifest, metadata and files stand alone; the
 # verify build would rebuild every dependency outside this workspace's profiles (minutes).
-cargo package --workspace --exclude cdrf-tests --no-verify --locked --allow-dirty --quiet
+cargo package --workspace --exclude cdrf-tests --exclude cdrf-fuzz --no-verify --locked --allow-dirty --quiet
 for crate in cdrf-core cdrf-fit cdrf-render cdrf-viewer; do
   listing="$(cargo package -p "$crate" --list --locked --allow-dirty 2>/dev/null)"
   # Test data and the bundled photographs stay out of the packages.
