@@ -66,7 +66,7 @@ section "cargo publish --dry-run (the four crates package and build on their own
 # Each crate is packaged and built from its package alone, against the others' packages (about
 # 5 minutes: the dependencies are rebuilt outside this workspace's profiles). Needs crates.io's
 # index, which CI reaches.
-cargo publish --dry-run --workspace --exclude cdrf-tests --locked --allow-dirty --quiet
+cargo publish --dry-run --workspace --exclude cdrf-tests --exclude cdrf-fuzz --locked --allow-dirty --quiet
 for crate in cdrf-core cdrf-fit cdrf-render cdrf-viewer; do
   listing="$(cargo package -p "$crate" --list --locked --allow-dirty 2>/dev/null)"
   # Test data and the bundled photographs stay out of the packages.
