@@ -42,6 +42,17 @@ pub enum LoadError {
         source: tobj::LoadError,
     },
     /// The glTF parser or validator rejected the file.
+    /// An OBJ face line names a vertex, texture coordinate or normal that does not exist, or
+    /// mixes vertex formats (`1/1/1` beside `2//2`).
+    #[error("{}: line {line}: {problem}", path.display())]
+    ObjFace {
+        /// The file.
+        path: PathBuf,
+        /// The 1-based line.
+        line: usize,
+        /// What is wrong.
+        problem: String,
+    },
     #[error("{}: invalid glTF", path.display())]
     Gltf {
         /// The file.

@@ -17,6 +17,11 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
         path: path.to_owned(),
         line,
     })?;
+    check_faces(&text).map_err(|(line, problem)| LoadError::ObjFace {
+        path: path.to_owned(),
+        line,
+        problem,
+    })?;
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
@@ -85,6 +90,89 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
     data.normals = (all_normals || any_normals).then_some(normals);
     data.uvs = (all_uvs && !uvs.is_empty()).then_some(uvs);
     Ok(data)
+}
+
+/// Checks every face line before tobj reads it: each index must name an element that exists
+/// (positive: 1 up to the file's count; negative: back from the count so far) and every corner
+/// of a face must have the same format. tobj indexes with such values unchecked (its index
+/// arithmetic overflows), so they are refused here with the line.
+fn check_faces(text: &str) -> Result<(), (usize, String)> {
+    let count = |prefix: &str| {
+        text.lines()
+            .filter(|line| line.split_whitespace().next() == Some(prefix))
+            .count() as i64
+    };
+    let totals = [count("v"), count("vt"), count("vn")];
+    let mut so_far = [0i64; 3];
+    let names = ["vertex", "texture coordinate", "normal"];
+    for (index, line) in text.lines().enumerate() {
+        let number = index + 1;
+        let mut tokens = line.split_whitespace();
+        match tokens.next() {
+            Some("v") => so_far[0] += 1,
+            Some("vt") => so_far[1] += 1,
+            Some("vn") => so_far[2] += 1,
+            Some("f") => {
+                let mut format: Option<[bool; 3]> = None;
+                for corner in tokens {
+                    let parts: Vec<&str> = corner.split('/').collect();
+                    if parts.len() > 3 {
+                        return Err((
+                            number,
+                            format!("face corner `{corner}` has more than 3 parts"),
+                        ));
+                    }
+                    let mut present = [false; 3];
+                    for (kind, part) in parts.iter().enumerate() {
+                        if part.is_empty() {
+                            if kind == 0 {
+                                return Err((
+                                    number,
+                                    format!("face corner `{corner}` has no vertex"),
+                                ));
+                            }
+                            continue;
+                        }
+                        present[kind] = true;
+                        let value: i64 = part.parse().map_err(|_| {
+                            (
+                                number,
+                                format!("face corner `{corner}`: `{part}` is not an index"),
+                            )
+                        })?;
+                        let valid = if value > 0 {
+                            value <= totals[kind]
+                        } else {
+                            value < 0 && -value <= so_far[kind]
+                        };
+                        if !valid {
+                            return Err((
+                                number,
+                                format!(
+                                    "face corner `{corner}`: {} index {value} does not exist ({} in the file, {} so far)",
+                                    names[kind], totals[kind], so_far[kind]
+                                ),
+                            ));
+                        }
+                    }
+                    match format {
+                        None => format = Some(present),
+                        Some(first) if first != present => {
+                            return Err((
+                                number,
+                                format!(
+                                    "face corner `{corner}` has another format than the face's first"
+                                ),
+                            ));
+                        }
+                        Some(_) => {}
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
 }
 
 /// The file as text: comment lines (`#`) may hold any bytes (read lossily, an editor's Latin-1
