@@ -41,7 +41,6 @@ pub enum LoadError {
         /// The parser's error.
         source: tobj::LoadError,
     },
-    /// The glTF parser or validator rejected the file.
     /// An OBJ face line names a vertex, texture coordinate or normal that does not exist, or
     /// mixes vertex formats (`1/1/1` beside `2//2`).
     #[error("{}: line {line}: {problem}", path.display())]
@@ -53,6 +52,7 @@ pub enum LoadError {
         /// What is wrong.
         problem: String,
     },
+    /// The glTF parser or validator rejected the file.
     #[error("{}: invalid glTF", path.display())]
     Gltf {
         /// The file.
