@@ -17,7 +17,7 @@
 //!
 //! # Method
 //! Szymon Rusinkiewicz, *Estimating Curvatures and Their Derivatives on Triangle Meshes*
-//! (3DPVT 2004), as in his trimesh2, with an addition in step 1 and a step 4:
+//! (3DPVT 2004), as in his trimesh2, with one addition in step 1:
 //! 1. vertex normals: Max's (1999) weights (face normals weighted per corner by
 //!    `1/(|e₁|²·|e₂|²)`, exact on a sphere), refined by a weighted least-squares quadratic
 //!    height field over the 1-ring, whose normal is exact for any quadric. Max's normals alone
@@ -28,14 +28,7 @@
 //!    is the least-squares solution of `II·(eᵢ·t, eᵢ·b) = (Δnᵢ·t, Δnᵢ·b)` over the three edges,
 //!    `Δnᵢ` the difference of the edge's end normals;
 //! 3. per vertex, the face tensors are rotated into the vertex's tangent frame and averaged
-//!    with the Voronoi ("mixed") corner areas of Meyer et al. 2003 as weights;
-//! 4. on irregular 1-rings (scanned meshes, random triangulations) the face fits' O(h) errors
-//!    no longer cancel around the vertex (with *exact* normals, 2.3 % RMS on a random
-//!    ellipsoid triangulation): there the estimate is blended with the mean curvature of the
-//!    vertex's own height-field fit from step 1, by a weight that grows from 0 at a ring
-//!    asymmetry `|Σ d| / Σ |d|` of 0.1 to 1 at 0.3 (`d` the tangent-plane offsets to the
-//!    1-ring; 0 for centrally symmetric and regular-polygon rings, so grids and icospheres
-//!    keep Rusinkiewicz's estimate, which is exact on a sphere where the fit is not).
+//!    with the Voronoi ("mixed") corner areas of Meyer et al. 2003 as weights.
 //!
 //! Only the mean curvature `H = ½ trace II` is reported. Rotating a tensor between orthonormal
 //! frames leaves its trace unchanged, so step 3 reduces *exactly* to the corner-area-weighted
@@ -46,11 +39,9 @@
 //! the thread count).
 //!
 //! # Accuracy (measured, `tests/curvature_analytic.rs`)
-//! RMS / max relative error: icosphere (642 vertices) 0.015 % / 0.030 %; torus R = 3, a = 1 on
+//! RMS / max relative error: icosphere (642 vertices) 0.012 % / 0.028 %; torus R = 3, a = 1 on
 //! a 64 × 32 grid 0.41 % / 1.0 %, 256 × 128 0.026 % / 0.079 %; 3:2:1 ellipsoid icosphere
-//! (10 242 vertices) 0.29 % / 1.0 %; the 3:2:1 ellipsoid as the convex hull of 10 000 / 40 000
-//! random points (`tests/curvature_irregular.rs`) 1.88 % / 1.18 % RMS (10 000 points before step 4: 3.5 %;
-//! libigl's `principal_curvature` 2.0 %). On very fine meshes the f32 positions set the floor
+//! (10 242 vertices) 0.29 % / 1.0 %. On very fine meshes the f32 positions set the floor
 //! (torus 1024 × 1024: 0.14 % / 1.0 %; one smoothing iteration: 0.08 % / 0.6 %).
 //!
 //! # Sign and units
@@ -198,10 +189,10 @@ pub fn mean_curvature_per_mm_welded(
     check_input(positions, triangles, options)?;
     let adjacency = VertexFaces::new(positions.len(), triangles);
 
-    let (normals, fitted): (Vec<Vec3>, Vec<Option<(f64, f64)>>) = (0..positions.len())
+    let normals: Vec<Vec3> = (0..positions.len())
         .into_par_iter()
-        .map(|v| vertex_normal(v, &adjacency, positions, triangles))
-        .unzip();
+        .map(|v| vertex_normal(v, adjacency.faces_of(v), positions, triangles))
+        .collect();
 
     let fits: Vec<FaceFit> = triangles
         .par_iter()
@@ -223,16 +214,7 @@ pub fn mean_curvature_per_mm_welded(
                 sum += w * fit.mean_curvature;
                 weight += w;
             }
-            // Rusinkiewicz's estimate, blended with the vertex's own height-field fit where
-            // the 1-ring is irregular.
-            let r = if weight > 0.0 { sum / weight } else { 0.0 };
-            match fitted[v] {
-                Some((h, asymmetry)) => {
-                    let w = irregular_weight(asymmetry);
-                    (1.0 - w) * r + w * h
-                }
-                None => r,
-            }
+            if weight > 0.0 { sum / weight } else { 0.0 }
         })
         .collect();
 
@@ -324,24 +306,11 @@ fn corner_of(t: [u32; 3], v: usize) -> usize {
     }
 }
 
-/// 1-ring asymmetry (see [`vertex_normal`]) below which a ring counts as regular: only
-/// Rusinkiewicz's estimate is used. Icospheres reach ~0.1 at their least regular vertices.
-const REGULAR_ASYMMETRY: f64 = 0.1;
-
-/// How fast the height-field fit takes over above [`REGULAR_ASYMMETRY`]: fully at 0.3.
-const IRREGULAR_BLEND_SLOPE: f64 = 5.0;
-
-/// The weight of the height-field fit's mean curvature for a ring of this asymmetry.
-fn irregular_weight(asymmetry: f64) -> f64 {
-    (IRREGULAR_BLEND_SLOPE * (asymmetry - REGULAR_ASYMMETRY)).clamp(0.0, 1.0)
-}
-
 /// The largest tilt (tan 30°) the height-field fit may apply to Max's normal; beyond it the
 /// 1-ring is not a height field over that plane and Max's normal is kept.
 const MAX_REFINEMENT_SLOPE: f64 = 0.577;
 
-/// Unit vertex normal, zero if the incident faces cancel or are all degenerate, and the
-/// height-field fit's mean curvature and ring asymmetry (below).
+/// Unit vertex normal, zero if the incident faces cancel or are all degenerate.
 ///
 /// First Max's (1999) normal: face normals weighted per corner by `1/(|a|²·|b|²)`. It is exact
 /// for vertices on a sphere but converges to the wrong normal on anisotropic 1-rings (measured
@@ -350,19 +319,9 @@ const MAX_REFINEMENT_SLOPE: f64 = 0.577;
 /// `z = a x² + b xy + c y² + d x + e y` through the vertex, fitted to the 1-ring in Max's
 /// tangent frame (weighted least squares, weights `1/|q − p|⁶` for neighbour `q`): the fit's
 /// normal `(−d, −e, 1)` is exact for any quadric (ellipsoid max error
-/// 10.6 % → 1.0 %). Below valence 5 the 2-ring's vertices join the fit. Max's normal is kept
-/// where the fit is under-determined, ill-conditioned or implausibly steep.
-///
-/// Also returns, where the fit was used, the fit's own mean curvature at the vertex and the
-/// ring's asymmetry `|Σ d| / Σ |d|` over the 1-ring offsets `d` projected to the tangent plane
-/// (0 for a centrally symmetric or regular-polygon ring; 1 below valence 5).
-fn vertex_normal(
-    v: usize,
-    adjacency: &VertexFaces,
-    positions: &[Vec3],
-    triangles: &[[u32; 3]],
-) -> (Vec3, Option<(f64, f64)>) {
-    let faces = adjacency.faces_of(v);
+/// 10.6 % → 1.0 %). Max's normal is kept where the fit is under-determined (boundary or
+/// valence < 5), ill-conditioned or implausibly steep.
+fn vertex_normal(v: usize, faces: &[u32], positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec3 {
     let p = positions[v].as_dvec3();
     let neighbours = |f: u32| {
         let t = triangles[f as usize];
@@ -380,45 +339,18 @@ fn vertex_normal(
         length_sum += a2.sqrt() + b2.sqrt();
     }
     let n0 = sum.normalize_or_zero();
-    if n0 == DVec3::ZERO || length_sum <= 0.0 {
-        return (n0.as_vec3(), None);
-    }
-    // The fit's points: the 1-ring, each interior neighbour twice (once per adjacent face).
-    // Below valence 5 (common on irregular meshes) the five unknowns need more: the 2-ring's
-    // vertices are added, each twice too.
-    let mut points: Vec<DVec3> = faces.iter().flat_map(|&f| neighbours(f)).collect();
-    if faces.len() < 5 {
-        let mut ring: Vec<u32> = faces
-            .iter()
-            .flat_map(|&f| triangles[f as usize])
-            .filter(|&i| i as usize != v)
-            .collect();
-        ring.sort_unstable();
-        ring.dedup();
-        let mut second: Vec<u32> = ring
-            .iter()
-            .flat_map(|&u| adjacency.faces_of(u as usize))
-            .flat_map(|&f| triangles[f as usize])
-            .filter(|&i| i as usize != v && ring.binary_search(&i).is_err())
-            .collect();
-        second.sort_unstable();
-        second.dedup();
-        for &i in &second {
-            let d = positions[i as usize].as_dvec3() - p;
-            points.extend([d, d]);
-        }
-    }
-    let rows = points.len();
-    if rows < 10 {
-        return (n0.as_vec3(), None);
+    // Interior neighbours appear twice (once per adjacent face): 2·valence rows, ≥ 5 distinct.
+    let rows = 2 * faces.len();
+    if n0 == DVec3::ZERO || rows < 10 || length_sum <= 0.0 {
+        return n0.as_vec3();
     }
     let (t1, t2) = n0.any_orthonormal_pair();
     // Coordinates in units of the mean edge length keep the normal equations well scaled.
-    let scale = (2 * faces.len()) as f64 / length_sum;
+    let scale = rows as f64 / length_sum;
     let mut ata = [[0.0f64; 5]; 5];
     let mut atz = [0.0f64; 5];
-    for &d in &points {
-        {
+    for &f in faces {
+        for d in neighbours(f) {
             let d = d * scale;
             let (x, y, z) = (d.dot(t1), d.dot(t2), d.dot(n0));
             let row = [x * x, x * y, y * y, x, y];
@@ -434,35 +366,10 @@ fn vertex_normal(
         }
     }
     match solve_cholesky_5(&ata, &atz) {
-        Some([a, b, c, slope_x, slope_y]) if slope_x.hypot(slope_y) <= MAX_REFINEMENT_SLOPE => {
-            // Mean curvature of z = a x² + b xy + c y² + d x + e y at 0, sign flipped for the
-            // outward normal, in model units (coordinates were multiplied by `scale`).
-            let (d, e) = (slope_x, slope_y);
-            let g = 1.0 + d * d + e * e;
-            let h = -((1.0 + e * e) * 2.0 * a - 2.0 * d * e * b + (1.0 + d * d) * 2.0 * c)
-                / (2.0 * g * g.sqrt())
-                * scale;
-            // 1-ring asymmetry: |Σ d| / Σ |d| in the tangent plane (0 for any centrally
-            // symmetric or regular-polygon ring).
-            let (mut first, mut total) = (DVec3::ZERO, 0.0);
-            for &f in faces {
-                for d in neighbours(f) {
-                    let d = d - d.dot(n0) * n0;
-                    first += d;
-                    total += d.length();
-                }
-            }
-            let asymmetry = if faces.len() < 5 {
-                1.0
-            } else {
-                first.length() / total
-            };
-            (
-                (n0 - slope_x * t1 - slope_y * t2).normalize().as_vec3(),
-                Some((h, asymmetry)),
-            )
+        Some([.., slope_x, slope_y]) if slope_x.hypot(slope_y) <= MAX_REFINEMENT_SLOPE => {
+            (n0 - slope_x * t1 - slope_y * t2).normalize().as_vec3()
         }
-        _ => (n0.as_vec3(), None),
+        _ => n0.as_vec3(),
     }
 }
 
