@@ -66,10 +66,13 @@ section "cargo publish --dry-run (the four crates package and build on their own
 # Each crate is packaged and built from its package alone, against the others' packages (about
 # 5 minutes: the dependencies are rebuilt outside this workspace's profiles). Needs crates.io's
 # index, which CI reaches.
-# Cargo unpacks the packages into a local registry folder under $CARGO_HOME and does not unpack a
-# version it finds there again: remove our crates' copies, or a second run verifies the first's.
+# Cargo unpacks the packages into a local registry folder under $CARGO_HOME and treats a registry
+# crate as immutable: it neither unpacks a version it finds there again nor rebuilds one it built.
+# Remove our crates' unpacked copies and their build fingerprints, or a second run verifies the
+# first run's sources.
 rm -rf "${CARGO_HOME:-$HOME/.cargo}"/registry/src/-*/cdrf-*-[0-9]* \
-  "${CARGO_HOME:-$HOME/.cargo}"/registry/cache/-*/cdrf-*-[0-9]*.crate
+  "${CARGO_HOME:-$HOME/.cargo}"/registry/cache/-*/cdrf-*-[0-9]*.crate \
+  target/package target/debug/.fingerprint/cdrf-*
 cargo publish --dry-run --workspace --exclude cdrf-tests --exclude cdrf-fuzz --locked --allow-dirty --quiet
 for crate in cdrf-core cdrf-fit cdrf-render cdrf-viewer; do
   listing="$(cargo package -p "$crate" --list --locked --allow-dirty 2>/dev/null)"
