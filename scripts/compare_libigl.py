@@ -13,7 +13,10 @@ Steps:
    cdrf_timings.json;
 2. loads every NAME.obj, times `igl.principal_curvature(V, F, radius)` (best of a few runs; the
    1M-vertex mesh once) and takes its mean curvature H = (PV1 + PV2) / 2;
-3. prints RMS / max relative error of both against the analytic values, and the speed ratio.
+3. prints RMS / max relative error of both against the analytic values, and the speed ratio;
+4. times whole processes on the 1M-vertex torus: the release `cdrf-curvature` binary (read OBJ,
+   weld, estimate, write CSV) against a Python process doing the same with libigl (import,
+   `read_triangle_mesh`, `principal_curvature`, write CSV).
 
 Sign: libigl's principal values come from a quadric fitted along its own per-vertex normals;
 on these outward-wound meshes they are positive on the sphere, like cdrf's (checked below).
@@ -111,6 +114,36 @@ def main():
         print(f"| {name} | {n} | {radius} | {wall:.3f} | {tp:.4f} / {ts:.4f} | "
               f"{wall / tp:.0f}x / {wall / ts:.0f}x | {100 * crms:.3f} % / {100 * irms:.3f} % | "
               f"{100 * cmax:.3f} % / {100 * imax:.3f} % |")
+    for radius in args.radius:
+        whole_process(args.dir, radius)
+
+
+
+IGL_PROCESS = """
+import sys, numpy as np, igl
+V, F = igl.read_triangle_mesh(sys.argv[1])
+r = igl.principal_curvature(V, F, int(sys.argv[3]))
+np.savetxt(sys.argv[2], np.c_[V, 0.5 * (r[2] + r[3])], delimiter=",", fmt="%.7g")
+"""
+
+
+def whole_process(directory, radius):
+    """Wall-clock seconds of one cdrf-curvature process and one libigl process on the big torus."""
+    subprocess.run(["cargo", "build", "--release", "--quiet", "-p", "cdrf-fit", "--bin",
+                    "cdrf-curvature"], cwd=REPO, check=True)
+    mesh = directory / "torus_1024x1024.obj"
+    cdrf = [str(REPO / "target" / "release" / "cdrf-curvature"), str(mesh), "--mm-per-unit", "1",
+            "--out", str(directory / "whole_cdrf.csv")]
+    igl_cmd = [sys.executable, "-c", IGL_PROCESS, str(mesh), str(directory / "whole_igl.csv"),
+               str(radius)]
+    times = {}
+    for name, cmd in [("cdrf", cdrf), ("libigl", igl_cmd)]:
+        start = time.perf_counter()
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+        times[name] = time.perf_counter() - start
+    print(f"\nwhole process on {mesh.name} (1M vertices, libigl radius {radius}): "
+          f"cdrf-curvature {times['cdrf']:.2f} s, libigl {times['libigl']:.2f} s "
+          f"-> {times['libigl'] / times['cdrf']:.1f}x")
 
 
 if __name__ == "__main__":

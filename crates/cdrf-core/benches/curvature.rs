@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 
 use cdrf_core::curvature::{CurvatureOptions, mean_curvature_per_mm, mean_curvature_per_mm_welded};
 use cdrf_core::mesh::Mesh;
-use common::{ellipsoid_mean_curvature, relative_error, torus_mean_curvature};
+use common::{ellipsoid_mean_curvature, irregular_ellipsoid, relative_error, torus_mean_curvature};
 use glam::Vec3;
 
 /// Best of `runs` wall-clock times (the least disturbed by the rest of the machine).
@@ -125,6 +125,17 @@ fn main() {
             case("ellipsoid_s4", Mesh::ellipsoid(radii, 4), ellipsoid),
             case("ellipsoid_s5", Mesh::ellipsoid(radii, 5), ellipsoid),
             case("ellipsoid_s7", Mesh::ellipsoid(radii, 7), ellipsoid),
+            // Irregular, like a scanned mesh (tests/curvature_irregular.rs).
+            case(
+                "ellipsoid_hull_10k",
+                irregular_ellipsoid(radii, 10_000, 1),
+                ellipsoid,
+            ),
+            case(
+                "ellipsoid_hull_40k",
+                irregular_ellipsoid(radii, 40_000, 2),
+                ellipsoid,
+            ),
         ];
         for (name, mesh, truth) in cases {
             let (parallel, curvature) = best_time(5, || {

@@ -1,8 +1,9 @@
-//! OBJ loading through `tobj`.
+//! OBJ loading through `tobj`, with a parallel reader for the plainest files.
 
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::{LoadError, MeshData};
 
@@ -22,6 +23,9 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
         line,
         problem,
     })?;
+    if let Some(data) = positions_and_triangles(&text) {
+        return Ok(data);
+    }
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
@@ -92,17 +96,145 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
     Ok(data)
 }
 
+/// Files of `v x y z` and `f i j k …` lines only (plus comments and blank lines: the shape of
+/// scanned and exported meshes at their largest) are read here, in parallel: a 1M-vertex OBJ
+/// takes 1.0 s in tobj, which is single-threaded, and most of `cdrf-curvature`'s run. The result
+/// is exactly tobj's in single-index mode (vertices in the order faces first use them, unused
+/// ones dropped, polygons fanned from their first corner, 1- and 2-corner faces ignored);
+/// `tests/obj_fast_path.rs` holds the two against each other. Anything else (`vt`, `vn`, `o`,
+/// `g`, materials, a `w` or colour on a vertex, a face with `/`, an unparsable number, no faces)
+/// returns `None` and goes through tobj. Runs after [`check_faces`]: indices are valid.
+fn positions_and_triangles(text: &str) -> Option<MeshData> {
+    let chunks = line_chunks(text, 1 << 20);
+    // Pass 1: the vertex count before each chunk (relative indices count back from it).
+    let counts: Option<Vec<usize>> = chunks
+        .par_iter()
+        .map(|chunk| {
+            let mut count = 0;
+            for line in chunk.lines() {
+                match line.split_whitespace().next() {
+                    Some("v") => count += 1,
+                    Some("f") => {}
+                    Some(token) if token.starts_with('#') => {}
+                    None => {}
+                    Some(_) => return None,
+                }
+            }
+            Some(count)
+        })
+        .collect();
+    let mut before = counts?;
+    let mut total = 0;
+    for count in &mut before {
+        total += std::mem::replace(count, total);
+    }
+    // Pass 2: positions and (file-index) triangles per chunk.
+    type Chunk = (Vec<Vec3>, Vec<[u32; 3]>);
+    let parsed: Option<Vec<Chunk>> = chunks
+        .par_iter()
+        .zip(&before)
+        .map(|(chunk, &before)| {
+            let (mut positions, mut triangles) = (Vec::new(), Vec::new());
+            let mut corners: Vec<u32> = Vec::new();
+            for line in chunk.lines() {
+                let mut tokens = line.split_whitespace();
+                match tokens.next() {
+                    Some("v") => {
+                        let mut xyz = [0.0f32; 3];
+                        for value in &mut xyz {
+                            *value = tokens.next()?.parse().ok()?;
+                        }
+                        if tokens.next().is_some() {
+                            return None;
+                        }
+                        positions.push(Vec3::from_array(xyz));
+                    }
+                    Some("f") => {
+                        let so_far = (before + positions.len()) as i64;
+                        corners.clear();
+                        for token in tokens {
+                            let index: i64 = token.parse().ok()?;
+                            let index = if index < 0 { so_far + index } else { index - 1 };
+                            corners.push(u32::try_from(index).ok()?);
+                        }
+                        if corners.is_empty() {
+                            return None; // tobj refuses a face without corners
+                        }
+                        for pair in corners.windows(2).skip(1) {
+                            triangles.push([corners[0], pair[0], pair[1]]);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            Some((positions, triangles))
+        })
+        .collect();
+    let parsed = parsed?;
+    let triangle_count: usize = parsed.iter().map(|(_, t)| t.len()).sum();
+    if triangle_count == 0 {
+        return None;
+    }
+    let mut file_positions = Vec::with_capacity(total);
+    let mut file_triangles = Vec::with_capacity(triangle_count);
+    for (positions, triangles) in parsed {
+        file_positions.extend(positions);
+        file_triangles.extend(triangles);
+    }
+    // tobj's single index: vertices numbered in the order the faces first use them.
+    let mut new_index = vec![u32::MAX; file_positions.len()];
+    let mut positions = Vec::new();
+    let mut triangles = file_triangles;
+    for triangle in &mut triangles {
+        for corner in triangle.iter_mut() {
+            let slot = new_index.get_mut(*corner as usize)?;
+            if *slot == u32::MAX {
+                *slot = u32::try_from(positions.len()).ok()?;
+                positions.push(file_positions[*corner as usize]);
+            }
+            *corner = *slot;
+        }
+    }
+    Some(MeshData {
+        positions,
+        normals: None,
+        uvs: None,
+        triangles,
+    })
+}
+
+/// `text` cut into pieces of about `bytes` bytes, each ending after a newline (the last one
+/// wherever the text ends).
+fn line_chunks(text: &str, bytes: usize) -> Vec<&str> {
+    let mut chunks = Vec::new();
+    let mut rest = text;
+    while !rest.is_empty() {
+        let end = match rest.as_bytes().iter().skip(bytes).position(|&b| b == b'\n') {
+            Some(offset) => bytes + offset + 1,
+            None => rest.len(),
+        };
+        let (chunk, tail) = rest.split_at(end);
+        chunks.push(chunk);
+        rest = tail;
+    }
+    chunks
+}
+
 /// Checks every face line before tobj reads it: each index must name an element that exists
 /// (positive: 1 up to the file's count; negative: back from the count so far) and every corner
 /// of a face must have the same format. tobj indexes with such values unchecked (its index
 /// arithmetic overflows), so they are refused here with the line.
 fn check_faces(text: &str) -> Result<(), (usize, String)> {
-    let count = |prefix: &str| {
-        text.lines()
-            .filter(|line| line.split_whitespace().next() == Some(prefix))
-            .count() as i64
-    };
-    let totals = [count("v"), count("vt"), count("vn")];
+    // One pass for the three totals (positive indices may point past the face's line).
+    let mut totals = [0i64; 3];
+    for line in text.lines() {
+        match line.split_whitespace().next() {
+            Some("v") => totals[0] += 1,
+            Some("vt") => totals[1] += 1,
+            Some("vn") => totals[2] += 1,
+            _ => {}
+        }
+    }
     let mut so_far = [0i64; 3];
     let names = ["vertex", "texture coordinate", "normal"];
     for (index, line) in text.lines().enumerate() {
@@ -115,15 +247,14 @@ fn check_faces(text: &str) -> Result<(), (usize, String)> {
             Some("f") => {
                 let mut format: Option<[bool; 3]> = None;
                 for corner in tokens {
-                    let parts: Vec<&str> = corner.split('/').collect();
-                    if parts.len() > 3 {
+                    if corner.split('/').nth(3).is_some() {
                         return Err((
                             number,
                             format!("face corner `{corner}` has more than 3 parts"),
                         ));
                     }
                     let mut present = [false; 3];
-                    for (kind, part) in parts.iter().enumerate() {
+                    for (kind, part) in corner.split('/').enumerate() {
                         if part.is_empty() {
                             if kind == 0 {
                                 return Err((
