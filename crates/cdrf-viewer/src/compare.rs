@@ -25,6 +25,10 @@
 //!   relative error* = Σ|R − T| / Σ T, both over blocks and channels (T the reference, R the
 //!   render). Ratios of sums, not means of ratios: a block in a cast shadow (T ≈ 0) weighs by
 //!   its radiance instead of dividing by nearly zero.
+//! - **Render / reference by θ** ([`ThetaTable`]): Σ render / Σ reference per bin of θ
+//!   ([`THETA_BIN_EDGES_DEG`]) outside cast shadows and over the cast shadow — how much of the
+//!   reference's light a model reproduces past the terminator, where the block errors of a dim
+//!   region say little.
 //! - **FLIP** (NVIDIA FLIP, 67 px/°) between the tone-mapped images (both × the exposure that
 //!   puts the reference's 99th-percentile luminance at 0.9, clamped, sRGB), averaged over the
 //!   compared pixels of each region.
@@ -48,8 +52,10 @@ use crate::assets::{FIT_GAUSSIAN_FILE, FIT_LUT_FILE, LoadedGaussian, LoadedLut};
 
 pub use cdrf_core::block_error::{BLOCK_PX, Region, TERMINATOR_COS};
 pub use figure::{FIGURE_ROW_LABELS, FigureLayout, figure, figure_column_labels};
+pub use theta_bins::{THETA_BIN_EDGES_DEG, THETA_BINS, ThetaRatios, ThetaTable};
 
 mod figure;
+mod theta_bins;
 
 /// Pixels eroded from the render's silhouette before comparing.
 pub const ERODE_PX: u32 = 2;
@@ -322,6 +328,8 @@ pub struct CaseResult {
     pub lambert_albedo: [f32; 3],
     /// One row per region.
     pub regions: Vec<RegionRow>,
+    /// Render / reference per θ bin and in the cast shadow, per model ([`theta_bins`]).
+    pub theta: ThetaTable,
     /// Reference, renders per model, cos θ and the compared-pixel mask (for the figure).
     #[serde(skip)]
     pub images: CaseImages,
@@ -540,6 +548,19 @@ pub fn run_case(
             models: models_row,
         });
     }
+    let pixel_bins: Vec<Option<usize>> = (0..mask.len())
+        .map(|i| theta_bins::pixel_bin(mask[i], cos_theta[i], occluded[i]))
+        .collect();
+    let (bin_pixels, cast_shadow_pixels) = theta_bins::counts(&pixel_bins);
+    let theta = ThetaTable {
+        pixels: bin_pixels,
+        cast_shadow_pixels,
+        models: ModelName::ALL
+            .into_iter()
+            .zip(&renders)
+            .map(|(model, render)| theta_bins::ratios(model, render, &reference, &pixel_bins))
+            .collect(),
+    };
     Ok(CaseResult {
         name: case.name.clone(),
         width,
@@ -547,6 +568,7 @@ pub fn run_case(
         exposure,
         lambert_albedo: models.lambert_albedo,
         regions,
+        theta,
         images: CaseImages {
             reference: Some(reference),
             renders,
@@ -738,6 +760,10 @@ const TABLE_KEY: &str = "Each cell: relative RMSE / mean relative error (8 × 8-
                          radiance) / mean FLIP (tone-mapped). Lower is better; the best of each \
                          region in bold.\n";
 
+const THETA_KEY: &str = "Render / reference by θ: Σ render / Σ reference (mean of R, G, B) over the \
+                         compared pixels of each θ bin outside cast shadows, and over the \
+                         cast-shadow pixels; 1 is right, 0.5 means half the light is missing.\n";
+
 /// The results as Markdown tables: per case and region, each model's relative RMSE, mean
 /// relative error and FLIP; the best model of each region and metric in bold.
 pub fn markdown(results: &[CaseResult]) -> String {
@@ -750,8 +776,11 @@ pub fn markdown(results: &[CaseResult]) -> String {
         ));
         text.push_str(&case_table(result));
         text.push('\n');
+        text.push_str(&theta_bins::markdown(&result.theta));
+        text.push('\n');
     }
     text.push_str(TABLE_KEY);
+    text.push_str(THETA_KEY);
     text
 }
 
@@ -797,7 +826,7 @@ pub fn results_page(results: &[CaseResult], figures: &str, provenance: &Provenan
          - *Regions* by a block's mean cos θ (θ between normal and light): lit side \
          cos θ ≥ {TERMINATOR_COS}, terminator band |cos θ| < {TERMINATOR_COS}, shadow side \
          cos θ ≤ −{TERMINATOR_COS}, and the cast shadow: facing the light but hidden from it \
-         by another part of the object, taken out of the lit side and the terminator band.\n\n"
+         by another part of the object, taken out of the lit side and the terminator band.\n         - *Render / reference by θ*: per bin of θ, Σ render / Σ reference of the pixels' mean          of R, G and B (cast-shadow pixels in their own column): how much of the light a model          reproduces at each angle.\n\n"
     ));
     for result in results {
         text.push_str(&format!("## {}\n\n", result.name));
@@ -811,8 +840,11 @@ pub fn results_page(results: &[CaseResult], figures: &str, provenance: &Provenan
         text.push_str(&format!("{}\n\n", case_caption(result)));
         text.push_str(&case_table(result));
         text.push('\n');
+        text.push_str(&theta_bins::markdown(&result.theta));
+        text.push('\n');
     }
     text.push_str(TABLE_KEY);
+    text.push_str(THETA_KEY);
     text
 }
 
