@@ -328,7 +328,7 @@ pub struct CaseResult {
     pub lambert_albedo: [f32; 3],
     /// One row per region.
     pub regions: Vec<RegionRow>,
-    /// Render / reference per θ bin and in the cast shadow, per model ([`theta_bins`]).
+    /// Render / reference per θ bin and in the cast shadow, per model ([`ThetaTable`]).
     pub theta: ThetaTable,
     /// Reference, renders per model, cos θ and the compared-pixel mask (for the figure).
     #[serde(skip)]
