@@ -26,6 +26,33 @@ pick = rng.choice(len(F), size=min(6000, len(F)), replace=False, p=area / area.s
 w_area = area.sum() / len(pick)
 ephi, ok = surface_phi(vox, phi, c[pick], fn[pick], D)
 M_e = ephi / 2  # exitance of each emitter (per channel)
+# Second emitter model: the measured table, which our renderer reproduces on the lit side to a
+# few per cent: exitance ≈ f(κ, θ) E (the LUT convention f = π L / E, its view factor ≈ 1).
+from common import load_lut, lut_value
+def vertex_mean_curvature(V, F):
+    e0 = V[F[:, 1]] - V[F[:, 0]]; e1 = V[F[:, 2]] - V[F[:, 0]]
+    fnv = np.cross(e0, e1); ar = np.linalg.norm(fnv, axis=1) / 2
+    vn = np.zeros_like(V)
+    for i in range(3):
+        np.add.at(vn, F[:, i], fnv)
+    vn /= np.linalg.norm(vn, axis=1)[:, None]
+    lap = np.zeros_like(V); A = np.zeros(len(V))
+    for i in range(3):
+        a, b, cc = F[:, i], F[:, (i + 1) % 3], F[:, (i + 2) % 3]
+        u = V[b] - V[a]; w = V[cc] - V[a]
+        cot = np.sum(u * w, 1) / np.linalg.norm(np.cross(u, w), axis=1)
+        np.add.at(lap, b, (cot / 2)[:, None] * (V[cc] - V[b])); np.add.at(lap, cc, (cot / 2)[:, None] * (V[b] - V[cc]))
+        np.add.at(A, a, ar / 3)
+    return -np.sum(lap * vn, 1) / A / 2
+LUT = load_lut()
+kappa_face = vertex_mean_curvature(V, F)[F[pick]].mean(1)
+theta_face = np.arccos(np.clip(fn[pick] @ to_light, -1, 1))
+# cast shadows of the emitters: the light's first surface along each emitter's column
+pl_e = c[pick] @ vox['R'].T
+je = np.floor((pl_e[:, 1] - vox['origin'][1]) / h).astype(int); ke = np.floor((pl_e[:, 2] - vox['origin'][2]) / h).astype(int)
+first_e = vox['first_x'][np.clip(je, 0, vox['n'][1] - 1), np.clip(ke, 0, vox['n'][2] - 1)]
+lit_e = ~((fn[pick] @ to_light > 0.05) & (pl_e[:, 0] > first_e + 1.0))
+M_lut = lut_value(LUT, np.clip(kappa_face, LUT['kmin'], LUT['kmax']), theta_face) * lit_e[:, None]
 # receivers: reference pixels, every 4th
 mask = cov > 0.999
 sub = np.zeros_like(mask); sub[::4, ::4] = True; mask &= sub
@@ -51,7 +78,7 @@ def blocked(a, b):
         ci = np.clip(ci, 0, n - 1)
         hit |= live & okc & inside[ci[..., 0], ci[..., 1], ci[..., 2]]
     return hit
-E_ind = np.zeros((len(pts), 3))
+E_ind = np.zeros((len(pts), 3)); E_lut = np.zeros((len(pts), 3))
 t0 = time.time()
 ce, ne = c[pick], fn[pick]
 for s in range(0, len(pts), 64):
@@ -63,9 +90,10 @@ for s in range(0, len(pts), 64):
     vis = good & ~blocked(np.broadcast_to(p, d.shape), np.broadcast_to(ce[None], d.shape))
     geom = np.where(vis, cr * cemit / np.maximum(dist2, (2 * h) ** 2), 0) * w_area / np.pi
     E_ind[s:s + 64] = geom @ M_e
+    E_lut[s:s + 64] = geom @ M_lut
 print(f'inter-reflection gather {time.time() - t0:.0f} s for {len(pts)} receivers x {len(pick)} emitters')
-from common import load_lut, lut_row
-f0 = lut_row(load_lut(), 1 / 35.0)[0]
+from common import lut_row
+f0 = lut_row(LUT, 1 / 35.0)[0]
 second = E_ind * f0[None] / np.pi
 cth = nrm @ to_light; deg = np.degrees(np.arccos(np.clip(cth, -1, 1)))
 pl = pts @ R.T
@@ -76,6 +104,7 @@ print(f'{"ratio render / reference":28s}', ' '.join(f'{BINS[i]}-{BINS[i + 1]}'.r
 binned(deg, cast, direct, Lref, 'diffusion, no bounce')
 binned(deg, cast, second, Lref, 'one inter-reflection alone')
 binned(deg, cast, direct + second, Lref, 'diffusion + inter-reflection')
+binned(deg, cast, E_lut * f0[None] / np.pi, Lref, 'bounce from measured table')
 lum = lambda x: x.mean(-1)
 for lo, hi in [(110, 180)]:
     m = (deg >= lo) & ~cast
