@@ -36,6 +36,7 @@
 //!    vertex's own height-field fit from step 1, by a weight that grows from 0 at a ring
 //!    asymmetry `|Σ d| / Σ |d|` of 0.1 to 1 at 0.3 (`d` the tangent-plane offsets to the
 //!    1-ring; 0 for centrally symmetric and regular-polygon rings, so grids and icospheres
+//!    — and open-boundary vertices, whose ring is one-sided —
 //!    keep Rusinkiewicz's estimate, which is exact on a sphere where the fit is not), times a
 //!    resolution weight: 1 while curvature × mean edge length ≤ 0.15, 0 from 0.3 (coarse meshes,
 //!    where a quadric over the ring no longer describes the surface, keep Rusinkiewicz's estimate).
@@ -364,7 +365,7 @@ fn irregular_weight(asymmetry: f64) -> f64 {
 /// bundled bunny: 6 mm edges, ears of a few mm radius) a quadric over the 1- or 2-ring no longer
 /// describes the surface: without this bound the fit put κ = 1.04 mm⁻¹ on an ear where
 /// Rusinkiewicz's estimate gives 0.23. The random ellipsoids (κ × edge ≤ 0.3) keep the
-/// full improvement (10 000 points: 1.877 % RMS with it, 1.877 % without).
+/// full improvement (they are unaffected by this bound).
 const RESOLVED_CURVATURE_EDGES: f64 = 0.15;
 
 /// The weight of the height-field fit for a curvature × mean edge length of `curvature_edges`.
@@ -424,6 +425,19 @@ fn vertex_normal(
     // Below valence 5 (common on irregular meshes) the five unknowns need more: the 2-ring's
     // vertices are added, each twice too.
     let mut points: Vec<DVec3> = faces.iter().flat_map(|&f| neighbours(f)).collect();
+    // On an open boundary (a neighbour in only one incident face) the ring is one-sided: it
+    // keeps its 1-ring fit and Rusinkiewicz's estimate (no 2-ring, no step 4).
+    let ring_corners: Vec<u32> = faces
+        .iter()
+        .flat_map(|&f| {
+            let t = triangles[f as usize];
+            let corner = corner_of(t, v);
+            [1, 2].map(|k| t[(corner + k) % 3])
+        })
+        .collect();
+    let boundary = ring_corners
+        .iter()
+        .any(|i| ring_corners.iter().filter(|&j| j == i).count() != 2);
     // 1-ring asymmetry: |Σ d| / Σ |d| in the tangent plane (0 for any centrally symmetric or
     // regular-polygon ring).
     let asymmetry = {
@@ -435,7 +449,7 @@ fn vertex_normal(
         }
         first.length() / total.max(f64::MIN_POSITIVE)
     };
-    if faces.len() < 5 || asymmetry > TWO_RING_ASYMMETRY {
+    if !boundary && (faces.len() < 5 || asymmetry > TWO_RING_ASYMMETRY) {
         let mut ring: Vec<u32> = faces
             .iter()
             .flat_map(|&f| triangles[f as usize])
@@ -491,7 +505,7 @@ fn vertex_normal(
             let asymmetry = if faces.len() < 5 { 1.0 } else { asymmetry };
             (
                 (n0 - slope_x * t1 - slope_y * t2).normalize().as_vec3(),
-                Some(HeightFieldFit {
+                (!boundary && h.is_finite()).then_some(HeightFieldFit {
                     mean_curvature: h,
                     asymmetry,
                     mean_edge: 1.0 / scale,

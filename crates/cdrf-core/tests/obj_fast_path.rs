@@ -101,7 +101,8 @@ fn a_large_grid_spanning_many_chunks_loads_the_same_both_ways() {
 
 #[test]
 fn files_the_fast_reader_does_not_take_still_load() {
-    // A `w` coordinate, normals and UVs, an empty face: tobj's business (and its errors).
+    // A `w` coordinate, normals and UVs, an empty face, bad indices: tobj's business or the
+    // pre-check's (and their errors).
     let cases = [
         ("w", "v 0 0 0 1\nv 1 0 0 1\nv 0 1 0 1\nf 1 2 3\n", true),
         (
@@ -114,6 +115,13 @@ fn files_the_fast_reader_does_not_take_still_load() {
             "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf\n",
             false,
         ),
+        // The most negative index (its negation overflowed in the pre-check once) and zero.
+        (
+            "i64-min",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -9223372036854775808\n",
+            false,
+        ),
+        ("zero", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", false),
     ];
     for (name, text, loads) in cases {
         let dir =

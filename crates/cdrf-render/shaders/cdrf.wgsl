@@ -29,7 +29,6 @@
 // terms are evaluated per vertex and interpolated (they vary over σ); Lambert's, per pixel.
 
 const PI: f32 = 3.14159265358979;
-const TAU: f32 = 6.28318530717959;
 const FRAC_1_PI: f32 = 0.318309886183791;
 const FRAC_2_PI: f32 = 0.636619772367581;
 const FRAC_PI_2: f32 = 1.5707963267949;
@@ -134,7 +133,6 @@ struct Shadows {
 @group(3) @binding(1) var shadow_maps: texture_depth_2d_array;
 
 struct VertexIn {
-    @builtin(vertex_index) index: u32,
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) curvature_per_mm: f32,

@@ -780,6 +780,7 @@ pub fn markdown(results: &[CaseResult]) -> String {
         text.push('\n');
     }
     text.push_str(TABLE_KEY);
+    text.push('\n');
     text.push_str(THETA_KEY);
     text
 }
@@ -826,7 +827,10 @@ pub fn results_page(results: &[CaseResult], figures: &str, provenance: &Provenan
          - *Regions* by a block's mean cos θ (θ between normal and light): lit side \
          cos θ ≥ {TERMINATOR_COS}, terminator band |cos θ| < {TERMINATOR_COS}, shadow side \
          cos θ ≤ −{TERMINATOR_COS}, and the cast shadow: facing the light but hidden from it \
-         by another part of the object, taken out of the lit side and the terminator band.\n         - *Render / reference by θ*: per bin of θ, Σ render / Σ reference of the pixels' mean          of R, G and B (cast-shadow pixels in their own column): how much of the light a model          reproduces at each angle.\n\n"
+         by another part of the object, taken out of the lit side and the terminator band.\n\
+         - *Render / reference by θ*: per bin of θ, Σ render / Σ reference of the pixels' mean \
+         of R, G and B (cast-shadow pixels in their own column): how much of the light a model \
+         reproduces at each angle.\n\n"
     ));
     for result in results {
         text.push_str(&format!("## {}\n\n", result.name));
@@ -844,6 +848,7 @@ pub fn results_page(results: &[CaseResult], figures: &str, provenance: &Provenan
         text.push('\n');
     }
     text.push_str(TABLE_KEY);
+    text.push('\n');
     text.push_str(THETA_KEY);
     text
 }

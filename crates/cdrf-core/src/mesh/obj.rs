@@ -274,7 +274,8 @@ fn check_faces(text: &str) -> Result<(), (usize, String)> {
                         let valid = if value > 0 {
                             value <= totals[kind]
                         } else {
-                            value < 0 && -value <= so_far[kind]
+                            value < 0
+                                && value.checked_neg().is_some_and(|back| back <= so_far[kind])
                         };
                         if !valid {
                             return Err((

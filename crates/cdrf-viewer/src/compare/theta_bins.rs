@@ -8,6 +8,7 @@
 //! (tens of per cent on the shadow side) averages out, and a nearly black pixel cannot dominate.
 //! 1 is right; 0.5 means half the light is missing.
 
+use cdrf_core::block_error::CAST_SHADOW_FRACTION;
 use cdrf_core::image_file::RgbaImage;
 use serde::Serialize;
 
@@ -46,7 +47,7 @@ pub(super) fn pixel_bin(compared: bool, cos_theta: f32, occluded: f32) -> Option
     if !compared || !cos_theta.is_finite() {
         return None;
     }
-    if cos_theta > 0.0 && occluded >= 0.5 {
+    if cos_theta > 0.0 && occluded > CAST_SHADOW_FRACTION {
         return Some(THETA_BINS);
     }
     let degrees = f64::from(cos_theta.clamp(-1.0, 1.0)).acos().to_degrees();
