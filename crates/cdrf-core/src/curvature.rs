@@ -422,12 +422,10 @@ fn vertex_normal(
         return (n0.as_vec3(), None);
     }
     // The fit's points: the 1-ring, each interior neighbour twice (once per adjacent face).
-    // Below valence 5 (common on irregular meshes) the five unknowns need more: the 2-ring's
-    // vertices are added, each twice too.
     let mut points: Vec<DVec3> = faces.iter().flat_map(|&f| neighbours(f)).collect();
-    // On an open boundary (a neighbour in only one incident face) the ring is one-sided: it
-    // keeps its 1-ring fit and Rusinkiewicz's estimate (no 2-ring, no step 4).
-    let ring_corners: Vec<u32> = faces
+    // The same neighbours' indices, sorted: on an open boundary some appear only once, and the
+    // one-sided ring keeps its 1-ring fit and Rusinkiewicz's estimate (no 2-ring, no step 4).
+    let mut ring: Vec<u32> = faces
         .iter()
         .flat_map(|&f| {
             let t = triangles[f as usize];
@@ -435,9 +433,10 @@ fn vertex_normal(
             [1, 2].map(|k| t[(corner + k) % 3])
         })
         .collect();
-    let boundary = ring_corners
-        .iter()
-        .any(|i| ring_corners.iter().filter(|&j| j == i).count() != 2);
+    ring.sort_unstable();
+    let boundary = ring.chunk_by(|a, b| a == b).any(|run| run.len() != 2);
+    ring.dedup();
+    ring.retain(|&i| i as usize != v);
     // 1-ring asymmetry: |Σ d| / Σ |d| in the tangent plane (0 for any centrally symmetric or
     // regular-polygon ring).
     let asymmetry = {
@@ -449,14 +448,9 @@ fn vertex_normal(
         }
         first.length() / total.max(f64::MIN_POSITIVE)
     };
+    // Below valence 5 (common on irregular meshes) the five unknowns need more, and asymmetric
+    // rings fit better wider: the 2-ring's vertices are added, each twice too.
     if !boundary && (faces.len() < 5 || asymmetry > TWO_RING_ASYMMETRY) {
-        let mut ring: Vec<u32> = faces
-            .iter()
-            .flat_map(|&f| triangles[f as usize])
-            .filter(|&i| i as usize != v)
-            .collect();
-        ring.sort_unstable();
-        ring.dedup();
         let mut second: Vec<u32> = ring
             .iter()
             .flat_map(|&u| adjacency.faces_of(u as usize))

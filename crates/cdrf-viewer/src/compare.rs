@@ -548,19 +548,7 @@ pub fn run_case(
             models: models_row,
         });
     }
-    let pixel_bins: Vec<Option<usize>> = (0..mask.len())
-        .map(|i| theta_bins::pixel_bin(mask[i], cos_theta[i], occluded[i]))
-        .collect();
-    let (bin_pixels, cast_shadow_pixels) = theta_bins::counts(&pixel_bins);
-    let theta = ThetaTable {
-        pixels: bin_pixels,
-        cast_shadow_pixels,
-        models: ModelName::ALL
-            .into_iter()
-            .zip(&renders)
-            .map(|(model, render)| theta_bins::ratios(model, render, &reference, &pixel_bins))
-            .collect(),
-    };
+    let theta = theta_bins::table(&mask, &cos_theta, &occluded, &reference, &renders);
     Ok(CaseResult {
         name: case.name.clone(),
         width,
@@ -764,6 +752,15 @@ const THETA_KEY: &str = "Render / reference by θ: Σ render / Σ reference (mea
                          compared pixels of each θ bin outside cast shadows, and over the \
                          cast-shadow pixels; 1 is right, 0.5 means half the light is missing.\n";
 
+/// A case's two tables (regions, then θ bins), each followed by a blank line.
+fn case_tables(result: &CaseResult) -> String {
+    format!(
+        "{}\n{}\n",
+        case_table(result),
+        theta_bins::markdown(&result.theta)
+    )
+}
+
 /// The results as Markdown tables: per case and region, each model's relative RMSE, mean
 /// relative error and FLIP; the best model of each region and metric in bold.
 pub fn markdown(results: &[CaseResult]) -> String {
@@ -774,10 +771,7 @@ pub fn markdown(results: &[CaseResult]) -> String {
             result.name,
             case_caption(result)
         ));
-        text.push_str(&case_table(result));
-        text.push('\n');
-        text.push_str(&theta_bins::markdown(&result.theta));
-        text.push('\n');
+        text.push_str(&case_tables(result));
     }
     text.push_str(TABLE_KEY);
     text.push('\n');
@@ -842,10 +836,7 @@ pub fn results_page(results: &[CaseResult], figures: &str, provenance: &Provenan
             result.name
         ));
         text.push_str(&format!("{}\n\n", case_caption(result)));
-        text.push_str(&case_table(result));
-        text.push('\n');
-        text.push_str(&theta_bins::markdown(&result.theta));
-        text.push('\n');
+        text.push_str(&case_tables(result));
     }
     text.push_str(TABLE_KEY);
     text.push('\n');

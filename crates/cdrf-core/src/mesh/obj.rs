@@ -18,14 +18,14 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
         path: path.to_owned(),
         line,
     })?;
+    if let Some(data) = positions_and_triangles(&text) {
+        return Ok(data);
+    }
     check_faces(&text).map_err(|(line, problem)| LoadError::ObjFace {
         path: path.to_owned(),
         line,
         problem,
     })?;
-    if let Some(data) = positions_and_triangles(&text) {
-        return Ok(data);
-    }
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
@@ -103,7 +103,8 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
 /// ones dropped, polygons fanned from their first corner, 1- and 2-corner faces ignored);
 /// `tests/obj_fast_path.rs` holds the two against each other. Anything else (`vt`, `vn`, `o`,
 /// `g`, materials, a `w` or colour on a vertex, a face with `/`, an unparsable number, no faces)
-/// returns `None` and goes through tobj. Runs after [`check_faces`]: indices are valid.
+/// returns `None` and goes through tobj, as does an index that names no vertex (so the error
+/// is [`check_faces`]'s, with its line).
 fn positions_and_triangles(text: &str) -> Option<MeshData> {
     let chunks = line_chunks(text, 1 << 20);
     // Pass 1: the vertex count before each chunk (relative indices count back from it).

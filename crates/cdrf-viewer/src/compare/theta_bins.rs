@@ -42,8 +42,36 @@ pub struct ThetaRatios {
     pub cast_shadow: f64,
 }
 
+/// The table of one case: per pixel compared (`mask`), its `cos_theta` and whether the object
+/// hides it from the light (`occluded`), every render (in [`ModelName::ALL`] order) against
+/// `reference`.
+pub(super) fn table(
+    mask: &[bool],
+    cos_theta: &[f32],
+    occluded: &[f32],
+    reference: &RgbaImage,
+    renders: &[RgbaImage],
+) -> ThetaTable {
+    let bins: Vec<Option<usize>> = mask
+        .iter()
+        .zip(cos_theta)
+        .zip(occluded)
+        .map(|((&compared, &cos_theta), &occluded)| pixel_bin(compared, cos_theta, occluded))
+        .collect();
+    let (pixels, cast_shadow_pixels) = counts(&bins);
+    ThetaTable {
+        pixels,
+        cast_shadow_pixels,
+        models: ModelName::ALL
+            .into_iter()
+            .zip(renders)
+            .map(|(model, render)| ratios(model, render, reference, &bins))
+            .collect(),
+    }
+}
+
 /// Which bin a pixel counts in: `Some(THETA_BINS)` for a cast shadow, `None` if not compared.
-pub(super) fn pixel_bin(compared: bool, cos_theta: f32, occluded: f32) -> Option<usize> {
+fn pixel_bin(compared: bool, cos_theta: f32, occluded: f32) -> Option<usize> {
     if !compared || !cos_theta.is_finite() {
         return None;
     }
@@ -59,7 +87,7 @@ pub(super) fn pixel_bin(compared: bool, cos_theta: f32, occluded: f32) -> Option
 }
 
 /// The ratios of `render` to `reference` over the pixels `bins` assigns (see [`pixel_bin`]).
-pub(super) fn ratios(
+fn ratios(
     model: ModelName,
     render: &RgbaImage,
     reference: &RgbaImage,
@@ -82,7 +110,7 @@ pub(super) fn ratios(
 }
 
 /// Pixels per bin (the table's second row).
-pub(super) fn counts(bins: &[Option<usize>]) -> ([usize; THETA_BINS], usize) {
+fn counts(bins: &[Option<usize>]) -> ([usize; THETA_BINS], usize) {
     let mut counts = [0usize; THETA_BINS + 1];
     for bin in bins.iter().flatten() {
         counts[*bin] += 1;
