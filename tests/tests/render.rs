@@ -950,6 +950,7 @@ fn prepare_rejects_unusable_input() {
                     non_local: NonLocal {
                         shadows: true,
                         transmission: false,
+                        interreflection: false,
                     },
                     mm_per_world_unit,
                     ..frame(view, 1.0, &ok)
@@ -968,6 +969,7 @@ fn prepare_rejects_unusable_input() {
                 non_local: NonLocal {
                     shadows: true,
                     transmission: true,
+                    interreflection: false,
                 },
                 ..frame(view, 1.0, &ok)
             },

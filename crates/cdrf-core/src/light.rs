@@ -13,7 +13,7 @@ pub struct DirectionalLight {
 }
 
 /// Which non-local terms a render adds to the CDRF (see [`crate::translucency`]). The default,
-/// both off, is the poster's local model.
+/// all off, is the poster's local model.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct NonLocal {
     /// Translucent visibility: cast shadows from shadow maps, with a penumbra as wide as the
@@ -22,17 +22,29 @@ pub struct NonLocal {
     /// Transmission: light through parts thinner than the CDRF assumes, and (with `shadows`)
     /// through occluders, by the material's T(d, μ).
     pub transmission: bool,
+    /// One inter-reflection: light that left the lit surface and enters another part of the
+    /// object (or another draw) through the air, as between the strands of a knot. Zero on
+    /// convex objects, where no two points of the surface face each other.
+    pub interreflection: bool,
 }
 
 impl NonLocal {
-    /// Neither term: the poster's local model.
+    /// No term: the poster's local model.
     pub const OFF: Self = Self {
         shadows: false,
         transmission: false,
+        interreflection: false,
+    };
+
+    /// Every term.
+    pub const ALL: Self = Self {
+        shadows: true,
+        transmission: true,
+        interreflection: true,
     };
 
     /// Whether any term is on.
     pub fn any(self) -> bool {
-        self.shadows || self.transmission
+        self.shadows || self.transmission || self.interreflection
     }
 }

@@ -33,10 +33,11 @@
 //! # curvature_range_per_mm = [-0.1, 0.1]  # model = "curvature" (default ±max |κ| of the mesh)
 //! shadows = false               # optional: translucent visibility from shadow maps (default false)
 //! transmission = false          # optional: light through thin parts, T(d, μ) (default false)
+//! interreflection = false       # optional: one bounce of light between parts (default false)
 //! ```
 //!
-//! `shadows` and `transmission` are the non-local terms ([`NonLocal`], see
-//! [`crate::translucency`]); both off is the poster's local model.
+//! `shadows`, `transmission` and `interreflection` are the non-local terms ([`NonLocal`], see
+//! [`crate::translucency`]); all off is the poster's local model.
 //!
 //! # Units
 //! World units are the mesh's units; one is `mm_per_unit` millimetres. The model transform's
@@ -74,7 +75,7 @@ pub struct Scene {
     pub lights: Vec<DirectionalLight>,
     /// The shading model.
     pub shading: ShadingSpec,
-    /// The non-local terms (`[shading] shadows`, `transmission`).
+    /// The non-local terms (`[shading] shadows`, `transmission`, `interreflection`).
     pub non_local: NonLocal,
 }
 
@@ -396,6 +397,8 @@ struct RawShading {
     shadows: bool,
     #[serde(default)]
     transmission: bool,
+    #[serde(default)]
+    interreflection: bool,
 }
 
 crate::exact_array_fields!(
@@ -701,6 +704,7 @@ impl Scene {
             non_local: NonLocal {
                 shadows: s.shadows,
                 transmission: s.transmission,
+                interreflection: s.interreflection,
             },
         })
     }
@@ -825,7 +829,19 @@ lut = "out/measured.exr"
             scene.non_local,
             NonLocal {
                 shadows: true,
-                transmission: true
+                transmission: true,
+                interreflection: false,
+            }
+        );
+        let text = EXAMPLE.replace(
+            "lut = \"out/measured.exr\"",
+            "lut = \"out/measured.exr\"\ninterreflection = true",
+        );
+        assert_eq!(
+            parse(&text).unwrap().non_local,
+            NonLocal {
+                interreflection: true,
+                ..NonLocal::OFF
             }
         );
         let text = EXAMPLE.replace(

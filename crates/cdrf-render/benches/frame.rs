@@ -74,10 +74,12 @@ fn main() -> Result<(), Box<dyn Error>> {
         let shadows = NonLocal {
             shadows: true,
             transmission: false,
+            interreflection: false,
         };
         let both = NonLocal {
             shadows: true,
             transmission: true,
+            interreflection: false,
         };
         vec![
             Variant {
@@ -133,6 +135,21 @@ fn main() -> Result<(), Box<dyn Error>> {
                 material: Material::Measured(lut.clone()),
                 options: fast,
                 non_local: both,
+            },
+            Variant {
+                name: "measured + all (inter-refl. 32²)",
+                material: Material::Measured(lut.clone()),
+                options: fast,
+                non_local: NonLocal::ALL,
+            },
+            Variant {
+                name: "measured + all (inter-refl. 16²)",
+                material: Material::Measured(lut.clone()),
+                options: Options {
+                    interreflection_resolution: 16,
+                    ..fast
+                },
+                non_local: NonLocal::ALL,
             },
             Variant {
                 name: "measured + shadows, no penumbra",

@@ -17,7 +17,7 @@
 //! Keys: `1` measured CDRF, `2` Gaussian CDRF, `3` Lambert, `4` curvature (blue concave, red
 //! convex); `←`/`→` move the light around the vertical axis, `↑`/`↓` raise and lower it (either
 //! stops the rotation), `Space` starts or stops the rotation, `M` toggles 4× MSAA, `S` cast
-//! shadows and `T` transmission (the non-local terms), `Esc` quits.
+//! shadows, `T` transmission and `I` inter-reflection (the non-local terms), `Esc` quits.
 //! The title shows the model, the shading, the sample count and the time per frame.
 //!
 //! `CDRF_EXIT_AFTER_FRAMES=N` exits cleanly (status 0) after N frames were presented — for
@@ -800,6 +800,9 @@ impl App {
             KeyCode::KeyT if !event.repeat => {
                 self.non_local.transmission = !self.non_local.transmission;
             }
+            KeyCode::KeyI if !event.repeat => {
+                self.non_local.interreflection = !self.non_local.interreflection;
+            }
             KeyCode::Escape => event_loop.exit(),
             _ => {}
         }
@@ -851,7 +854,7 @@ impl App {
         if elapsed >= TITLE_INTERVAL && self.title_frames > 0 {
             let ms_per_frame = elapsed.as_secs_f64() * 1e3 / f64::from(self.title_frames);
             gpu.window.set_title(&format!(
-                "cdrf winit_host — {} — {}{}{} — {}× MSAA — {ms_per_frame:.1} ms/frame",
+                "cdrf winit_host — {} — {}{}{}{} — {}× MSAA — {ms_per_frame:.1} ms/frame",
                 self.scene.name,
                 self.shading.name(),
                 if self.non_local.shadows {
@@ -861,6 +864,11 @@ impl App {
                 },
                 if self.non_local.transmission {
                     " + transmission"
+                } else {
+                    ""
+                },
+                if self.non_local.interreflection {
+                    " + inter-reflection"
                 } else {
                     ""
                 },

@@ -9,7 +9,8 @@
 //   0: frame    camera, lights
 //   1: material LUT, view correction, model parameters
 //   2: draw     model transform (dynamic offset)
-//   3: shadows  per-light light-space transforms and shadow maps (first-surface depth)
+//   3: shadows  per-light light-space transforms, shadow maps (first-surface depth) and surfel
+//               maps (the lit first surface, for the inter-reflection)
 //
 // The shading model, the LUT filtering and the non-local terms are pipeline-overridable
 // constants, so each pipeline compiles to one straight-line shader.
@@ -27,6 +28,18 @@
 //     predicts (a fin, a slab lit from behind) T(d, μ) − T(d_sphere, μ) is added.
 // Per light: f → V·f (shadows) + T_occluded + T_thin (transmission), all times g(θ, φ). The
 // terms are evaluated per vertex and interpolated (they vary over σ); Lambert's, per pixel.
+//
+// Inter-reflection (INTERREFLECTION): one bounce of light that left the lit surface and enters
+// another part of the object through the air (reflective shadow maps, Dachsbacher & Stamminger
+// 2005). The surfel pass (vs_surfel / fs_surfel) renders each shadowed light's first surface
+// into a small map (Options::interreflection_resolution, one sample per texel: averaging
+// samples across a silhouette put phantom emitters in the air between two strands): per texel
+// the light the surface sends out per unit of the light's irradiance and of map area,
+// f(κ, θ)/cos θ (the table's exitance over the surface the texel covers), its normal and its
+// position. Each vertex sums every texel as a Lambertian emitter,
+// E = Σ Φ·cos θ_q·cos θ_p / (π d²) (d clamped to one texel: a texel is not a point), with no
+// visibility test, and reflects it as light along its normal: E/π · f(κ, 0) · g(0, φ). On a
+// convex surface no emitter lies in front of a point, so the term is zero there.
 
 const PI: f32 = 3.14159265358979;
 const FRAC_1_PI: f32 = 0.318309886183791;
@@ -54,6 +67,10 @@ override ENCODE_SRGB: bool = false;
 // shadow maps, and transmission.
 override SHADOWS: bool = false;
 override TRANSMISSION: bool = false;
+override INTERREFLECTION: bool = false;
+// The surfel pass divides the table's f(κ, θ) by cos θ (texel area → surface area), at least
+// this much: a texel at the silhouette covers a long strip of surface its 4 samples only guess.
+const SURFEL_MIN_COSINE: f32 = 0.25;
 
 struct Light {
     // Unit vector toward the light, world space.
@@ -121,6 +138,8 @@ struct Shadows {
     resolution: u32,
     // Lights with a map (the first ones of the frame).
     light_count: u32,
+    // Surfel map texels per side (the same square as the shadow map).
+    surfel_resolution: u32,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -131,6 +150,11 @@ struct Shadows {
 @group(2) @binding(0) var<uniform> draw: Draw;
 @group(3) @binding(0) var<uniform> shadows: Shadows;
 @group(3) @binding(1) var shadow_maps: texture_depth_2d_array;
+// Surfel maps: exitance f/cos θ (rgb; 0 where no surface) and the light-space normal's x (a);
+// light-space position in mm (xyz) and the normal's y (a). The normal's z is negative (the
+// surface faces the light).
+@group(3) @binding(2) var surfel_exitance: texture_2d_array<f32>;
+@group(3) @binding(3) var surfel_position: texture_2d_array<f32>;
 
 struct VertexIn {
     @location(0) position: vec3<f32>,
@@ -155,6 +179,8 @@ struct VertexOut {
     @location(8) @interpolate(perspective, centroid) transmission_2: vec3<f32>,
     @location(9) @interpolate(perspective, centroid) visibility_3: vec3<f32>,
     @location(10) @interpolate(perspective, centroid) transmission_3: vec3<f32>,
+    // The inter-reflected radiance of all shadowed lights (before exposure).
+    @location(11) @interpolate(perspective, centroid) interreflection: vec3<f32>,
 }
 
 // The non-local terms of a translucent material vary over the scattering length σ (light
@@ -177,6 +203,14 @@ fn vs_main(vertex: VertexIn) -> VertexOut {
     out.transmission_1 = vec3<f32>(0.0);
     out.transmission_2 = vec3<f32>(0.0);
     out.transmission_3 = vec3<f32>(0.0);
+    out.interreflection = vec3<f32>(0.0);
+    if INTERREFLECTION && MODEL != MODEL_CURVATURE {
+        out.interreflection = interreflected_radiance(
+            out.world_position,
+            normalize(out.world_normal),
+            out.curvature_per_mm,
+        );
+    }
     if (SHADOWS || TRANSMISSION) && MODEL != MODEL_LAMBERT && MODEL != MODEL_CURVATURE {
         let count = min(shadows.light_count, frame.light_count);
         let normal = normalize(out.world_normal);
@@ -685,24 +719,13 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         let range = material.curvature_range_per_mm;
         radiance = cool_warm((in.curvature_per_mm - range.x) / max(range.y - range.x, 1e-12));
     } else {
-        var to_camera = frame.to_camera;
-        if frame.camera_is_point != 0u {
-            to_camera = normalize(frame.to_camera - in.world_position);
-        }
-        let phi = angle(dot(normal, to_camera));
+        let phi = angle(dot(normal, to_camera_from(in.world_position)));
         let light_count = min(frame.light_count, MAX_LIGHTS);
         for (var i = 0u; i < light_count; i++) {
             let light = frame.lights[i];
             let cos_theta = dot(normal, light.to_light);
             let theta = angle(cos_theta);
-            var f: vec3<f32>;
-            if MODEL == MODEL_LAMBERT {
-                f = material.albedo_or_scale * max(cos_theta, 0.0);
-            } else if MODEL == MODEL_GAUSSIAN_ANALYTIC {
-                f = gaussian_analytic(in.curvature_per_mm, theta);
-            } else {
-                f = lut_value(in.curvature_per_mm, theta);
-            }
+            var f = local_value(in.curvature_per_mm, cos_theta, theta);
             if (SHADOWS || TRANSMISSION) && i < shadows.light_count {
                 var terms: NonLocalTerms;
                 if MODEL == MODEL_LAMBERT {
@@ -725,10 +748,133 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
             }
             radiance += light.irradiance * FRAC_1_PI * f;
         }
+        if INTERREFLECTION {
+            radiance += in.interreflection;
+        }
         radiance *= frame.exposure;
     }
     if ENCODE_SRGB {
         radiance = linear_to_srgb(radiance);
     }
     return vec4<f32>(radiance, 1.0);
+}
+
+// The local model's f(κ, θ) (π·L/E; the curvature view has none).
+fn local_value(curvature_per_mm: f32, cos_theta: f32, theta: f32) -> vec3<f32> {
+    if MODEL == MODEL_LAMBERT {
+        return material.albedo_or_scale * max(cos_theta, 0.0);
+    } else if MODEL == MODEL_GAUSSIAN_ANALYTIC {
+        return gaussian_analytic(curvature_per_mm, theta);
+    }
+    return lut_value(curvature_per_mm, theta);
+}
+
+// The unit vector toward the camera from a world position.
+fn to_camera_from(world_position: vec3<f32>) -> vec3<f32> {
+    if frame.camera_is_point != 0u {
+        return normalize(frame.to_camera - world_position);
+    }
+    return frame.to_camera;
+}
+
+// See the header: one bounce from the surfel maps of the shadowed lights, reflected as light
+// along the normal.
+fn interreflected_radiance(
+    world_position: vec3<f32>,
+    normal: vec3<f32>,
+    curvature_per_mm: f32,
+) -> vec3<f32> {
+    let count = min(shadows.light_count, min(frame.light_count, MAX_SHADOW_LIGHTS));
+    var irradiance = vec3<f32>(0.0);
+    for (var i = 0u; i < count; i++) {
+        let light = shadows.lights[i];
+        let p = (light.light_from_world * vec4<f32>(world_position, 1.0)).xyz
+            * shadows.mm_per_world_unit;
+        let n = (light.light_from_world * vec4<f32>(normal, 0.0)).xyz;
+        irradiance += frame.lights[i].irradiance * surfel_irradiance(i, p, n);
+    }
+    var response = local_value(curvature_per_mm, 1.0, 0.0);
+    if MODEL != MODEL_LAMBERT {
+        response *= view_value(0.0, angle(dot(normal, to_camera_from(world_position))));
+    }
+    return irradiance * FRAC_1_PI * response;
+}
+
+// Irradiance at light-space point p (mm) with normal n from surfel map `index`, per unit of the
+// light's irradiance: every covered texel as a Lambertian emitter of flux exitance × area.
+fn surfel_irradiance(index: u32, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let size = i32(shadows.surfel_resolution);
+    let texel_mm = 2.0 * shadows.lights[index].half_extent * shadows.mm_per_world_unit
+        / f32(size);
+    let nearest_sq = texel_mm * texel_mm;
+    var sum = vec3<f32>(0.0);
+    for (var y = 0; y < size; y++) {
+        for (var x = 0; x < size; x++) {
+            let texel = vec2<i32>(x, y);
+            let exitance = textureLoad(surfel_exitance, texel, i32(index), 0);
+            if all(exitance.rgb <= vec3<f32>(0.0)) {
+                continue;
+            }
+            let position = textureLoad(surfel_position, texel, i32(index), 0);
+            let from_emitter = p - position.xyz;
+            let receiver = -dot(n, from_emitter);
+            if receiver <= 0.0 {
+                continue;
+            }
+            let across = vec2<f32>(exitance.a, position.a);
+            let emitter_normal = vec3<f32>(across, -sqrt(max(1.0 - dot(across, across), 0.0)));
+            let emitter = dot(emitter_normal, from_emitter);
+            if emitter <= 0.0 {
+                continue;
+            }
+            // cos θ_p · cos θ_q = receiver · emitter / d², then / d² clamped.
+            let d2 = dot(from_emitter, from_emitter);
+            sum += exitance.rgb * (receiver * emitter / (d2 * max(d2, nearest_sq)));
+        }
+    }
+    return sum * (nearest_sq * FRAC_1_PI);
+}
+
+struct SurfelOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) light_position_mm: vec3<f32>,
+    @location(1) light_normal: vec3<f32>,
+    @location(2) curvature_per_mm: f32,
+}
+
+// The surfel pass: the draws seen from shadowed light `light` (the instance index), in the
+// shadow map's square.
+@vertex
+fn vs_surfel(vertex: VertexIn, @builtin(instance_index) light: u32) -> SurfelOut {
+    let camera = shadows.lights[light];
+    let world = draw.world_from_model * vec4<f32>(vertex.position, 1.0);
+    let light_space = (camera.light_from_world * world).xyz;
+    var out: SurfelOut;
+    out.clip = vec4<f32>(
+        light_space.xy / camera.half_extent,
+        light_space.z / camera.depth_range,
+        1.0,
+    );
+    out.light_position_mm = light_space * shadows.mm_per_world_unit;
+    let normal = (draw.normal_from_model * vec4<f32>(vertex.normal, 0.0)).xyz;
+    out.light_normal = (camera.light_from_world * vec4<f32>(normal, 0.0)).xyz;
+    out.curvature_per_mm = vertex.curvature_per_mm * draw.curvature_scale;
+    return out;
+}
+
+struct SurfelTexel {
+    @location(0) exitance: vec4<f32>,
+    @location(1) position: vec4<f32>,
+}
+
+@fragment
+fn fs_surfel(in: SurfelOut) -> SurfelTexel {
+    let normal = normalize(in.light_normal);
+    // The light shines along +z of light space.
+    let cos_theta = -normal.z;
+    let f = local_value(in.curvature_per_mm, cos_theta, angle(cos_theta));
+    var out: SurfelTexel;
+    out.exitance = vec4<f32>(f / max(cos_theta, SURFEL_MIN_COSINE), normal.x);
+    out.position = vec4<f32>(in.light_position_mm, normal.y);
+    return out;
 }

@@ -120,6 +120,8 @@ gpu_struct! {
         depth_bias_mm: f32,
         resolution: u32,
         light_count: u32,
+        surfel_resolution: u32,
+        _pad0: [u32; 3],
     }
 }
 

@@ -58,9 +58,11 @@ pub(crate) struct MaterialFactory {
 
 impl MaterialFactory {
     pub(crate) fn new(device: &wgpu::Device) -> Self {
+        // The tables are read per pixel, and per vertex by the inter-reflection (the response
+        // to the bounced light).
         let texture = |binding| wgpu::BindGroupLayoutEntry {
             binding,
-            visibility: wgpu::ShaderStages::FRAGMENT,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
             ty: wgpu::BindingType::Texture {
                 sample_type: wgpu::TextureSampleType::Float { filterable: true },
                 view_dimension: wgpu::TextureViewDimension::D2,
@@ -76,7 +78,7 @@ impl MaterialFactory {
                 texture(2),
                 wgpu::BindGroupLayoutEntry {
                     binding: 3,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                     count: None,
                 },

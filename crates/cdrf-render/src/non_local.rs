@@ -1,7 +1,8 @@
 //! The non-local terms' GPU side: an orthographic light camera per shadowed light fitted to the
-//! frame's draws, the depth-only shadow pass that renders their maps, and the bind group
-//! (group 3) through which the shading pipelines read them. What the shader does with the maps
-//! is documented at the top of `shaders/cdrf.wgsl`.
+//! frame's draws, the depth-only shadow pass that renders their maps, the surfel pass that
+//! renders the lit surface the inter-reflection gathers from, and the bind group (group 3)
+//! through which the shading pipelines read them. What the shader does with the maps is
+//! documented at the top of `shaders/cdrf.wgsl`.
 
 use std::collections::HashMap;
 
@@ -17,29 +18,50 @@ use crate::target::Options;
 
 /// The shadow maps' depth format.
 const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// The surfel maps' format (exitance and normal x; position and normal y).
+pub(crate) const SURFEL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// The surfel maps' attachments, in the order of `fs_surfel`'s outputs.
+pub(crate) const SURFEL_TARGETS: usize = 2;
 
-/// A draw of the frame for the shadow pass: its mesh and its transform's offset in the draw
-/// buffer.
+/// A draw of the frame for the shadow and surfel passes: its mesh, its transform's offset in
+/// the draw buffer, its material and the surfel pipeline of its shading model (`None`: it
+/// casts shadows but sends out no inter-reflected light).
 pub(crate) struct ShadowCaster<'a> {
     pub(crate) mesh: &'a GpuMesh,
     pub(crate) draw_offset: u32,
+    pub(crate) material: &'a wgpu::BindGroup,
+    pub(crate) surfel_pipeline: Option<&'a wgpu::RenderPipeline>,
 }
 
-/// The shadow maps and what the shading pipelines read of them (bind group 3).
+/// The bind groups the surfel pass sets besides group 3: the frame's (0) and the draws' (2).
+pub(crate) struct SurfelBindings<'a> {
+    pub(crate) frame: &'a wgpu::BindGroup,
+    pub(crate) draws: &'a wgpu::BindGroup,
+}
+
+/// The shadow maps, the surfel maps and what the shading pipelines read of them (bind group 3).
 struct ShadowMaps {
     resolution: u32,
+    surfel_resolution: u32,
     /// One view per layer, to render into.
     layers: Vec<wgpu::TextureView>,
+    /// Per shadowed light, its surfel map's attachments.
+    surfel_layers: Vec<[wgpu::TextureView; SURFEL_TARGETS]>,
+    /// The surfel pass's depth buffer (shared by the lights).
+    surfel_depth: wgpu::TextureView,
     bind_group: wgpu::BindGroup,
+    /// Group 3 for the surfel pass itself: the same uniforms with blank surfel maps (a map
+    /// cannot be read and written in one pass).
+    surfel_pass_bind_group: wgpu::BindGroup,
 }
 
 /// Everything the shadow pass owns.
 pub(crate) struct NonLocalPass {
-    /// Bind group 3's layout (uniforms and the map array).
+    /// Bind group 3's layout (uniforms, the shadow map array and the surfel map arrays).
     pub(crate) layout: wgpu::BindGroupLayout,
     uniforms: wgpu::Buffer,
-    /// Bound when no shadow map exists yet (a 1 × 1 map).
-    no_shadows: wgpu::BindGroup,
+    /// Bound when no shadow map exists yet (1 × 1 maps).
+    no_shadows: ShadowMaps,
     maps: Option<ShadowMaps>,
     pass_buffer: wgpu::Buffer,
     pass_bind_group: wgpu::BindGroup,
@@ -53,6 +75,17 @@ impl NonLocalPass {
     /// `draw_layout`: the shading pass's draw bind group layout (group 2), reused as the shadow
     /// pass's group 1.
     pub(crate) fn new(device: &wgpu::Device, draw_layout: &wgpu::BindGroupLayout) -> Self {
+        let surfel_entry = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            // Gathered per vertex.
+            visibility: wgpu::ShaderStages::VERTEX,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2Array,
+                multisampled: false,
+            },
+            count: None,
+        };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf shadows layout"),
             entries: &[
@@ -68,6 +101,8 @@ impl NonLocalPass {
                     },
                     count: None,
                 },
+                surfel_entry(2),
+                surfel_entry(3),
             ],
         });
         let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
@@ -76,7 +111,7 @@ impl NonLocalPass {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let (_, no_shadows) = create_shadow_maps(device, &layout, &uniforms, 1);
+        let no_shadows = ShadowMaps::new(device, &layout, &uniforms, 1, 1);
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf shadow pass layout"),
             entries: &[uniform_layout_entry::<GpuShadowPass>(
@@ -124,7 +159,7 @@ impl NonLocalPass {
     pub(crate) fn bind_group(&self) -> &wgpu::BindGroup {
         match &self.maps {
             Some(maps) if self.shadowed_lights > 0 => &maps.bind_group,
-            _ => &self.no_shadows,
+            _ => &self.no_shadows.bind_group,
         }
     }
 
@@ -134,7 +169,8 @@ impl NonLocalPass {
     }
 
     /// Fits an orthographic light camera to the bounding sphere of the draws for each of the
-    /// first [`MAX_SHADOW_LIGHTS`] lights, uploads the transforms and records the depth pass.
+    /// first [`MAX_SHADOW_LIGHTS`] lights, uploads the transforms and records the depth pass,
+    /// then (with inter-reflection on) the surfel pass.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn prepare(
         &mut self,
@@ -144,19 +180,24 @@ impl NonLocalPass {
         frame: &FrameDesc<'_>,
         meshes: &HashMap<MeshId, GpuMesh>,
         casters: &[ShadowCaster<'_>],
-        draw_bind_group: &wgpu::BindGroup,
+        bindings: SurfelBindings<'_>,
     ) -> wgpu::CommandBuffer {
-        let resolution = options
-            .shadow_map_resolution
-            .clamp(1, device.limits().max_texture_dimension_2d);
-        if self.maps.as_ref().map(|m| m.resolution) != Some(resolution) {
-            let (layers, bind_group) =
-                create_shadow_maps(device, &self.layout, &self.uniforms, resolution);
-            self.maps = Some(ShadowMaps {
+        let max_side = device.limits().max_texture_dimension_2d;
+        let resolution = options.shadow_map_resolution.clamp(1, max_side);
+        let surfel_resolution = options.interreflection_resolution.clamp(1, max_side);
+        if self
+            .maps
+            .as_ref()
+            .map(|m| (m.resolution, m.surfel_resolution))
+            != Some((resolution, surfel_resolution))
+        {
+            self.maps = Some(ShadowMaps::new(
+                device,
+                &self.layout,
+                &self.uniforms,
                 resolution,
-                layers,
-                bind_group,
-            });
+                surfel_resolution,
+            ));
         }
         let (centre, radius) = scene_bounds(frame.draws, meshes);
         let lights = frame.lights.len().min(MAX_SHADOW_LIGHTS);
@@ -165,6 +206,7 @@ impl NonLocalPass {
             depth_bias_mm: options.shadow_bias_mm.max(0.0),
             resolution,
             light_count: lights as u32,
+            surfel_resolution,
             ..bytemuck::Zeroable::zeroed()
         };
         let mut passes = vec![0u8; (self.pass_stride * MAX_SHADOW_LIGHTS as u64) as usize];
@@ -210,14 +252,159 @@ impl NonLocalPass {
             let offset = (index as u64 * self.pass_stride) as u32;
             pass.set_bind_group(0, &self.pass_bind_group, &[offset]);
             for caster in casters {
-                pass.set_bind_group(1, draw_bind_group, &[caster.draw_offset]);
+                pass.set_bind_group(1, bindings.draws, &[caster.draw_offset]);
                 pass.set_vertex_buffer(0, caster.mesh.vertices.slice(..));
                 pass.set_index_buffer(caster.mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
                 pass.draw_indexed(0..caster.mesh.index_count, 0, 0..1);
             }
         }
+        if frame.non_local.interreflection {
+            maps.record_surfel_pass(&mut encoder, lights, casters, &bindings);
+        }
         self.shadowed_lights = lights;
         encoder.finish()
+    }
+}
+
+impl ShadowMaps {
+    /// The shadow maps (one depth layer per shadowed light, `resolution` texels per side), the
+    /// surfel maps (`surfel_resolution`) and the shading pipelines' bind group 3 reading them.
+    fn new(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        uniforms: &wgpu::Buffer,
+        resolution: u32,
+        surfel_resolution: u32,
+    ) -> Self {
+        let (shadow_array, layers) = layered_texture(
+            device,
+            "cdrf shadow maps",
+            SHADOW_FORMAT,
+            resolution,
+            MAX_SHADOW_LIGHTS as u32,
+        );
+        let surfel_maps: [_; SURFEL_TARGETS] = std::array::from_fn(|_| {
+            layered_texture(
+                device,
+                "cdrf surfel maps",
+                SURFEL_FORMAT,
+                surfel_resolution,
+                MAX_SHADOW_LIGHTS as u32,
+            )
+        });
+        let surfel_layers = (0..MAX_SHADOW_LIGHTS)
+            .map(|light| std::array::from_fn(|target| surfel_maps[target].1[light].clone()))
+            .collect();
+        let blank: [_; SURFEL_TARGETS] = std::array::from_fn(|_| {
+            layered_texture(device, "cdrf blank surfel maps", SURFEL_FORMAT, 1, 1).0
+        });
+        let group = |surfels: [&wgpu::TextureView; SURFEL_TARGETS]| {
+            let mut entries = vec![
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: uniforms.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&shadow_array),
+                },
+            ];
+            for (binding, view) in (2..).zip(surfels) {
+                entries.push(wgpu::BindGroupEntry {
+                    binding,
+                    resource: wgpu::BindingResource::TextureView(view),
+                });
+            }
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("cdrf shadows"),
+                layout,
+                entries: &entries,
+            })
+        };
+        let bind_group = group(std::array::from_fn(|target| &surfel_maps[target].0));
+        let surfel_pass_bind_group = group(std::array::from_fn(|target| &blank[target]));
+        let surfel_depth = device
+            .create_texture(&wgpu::TextureDescriptor {
+                label: Some("cdrf surfel depth"),
+                size: wgpu::Extent3d {
+                    width: surfel_resolution,
+                    height: surfel_resolution,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: SHADOW_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            })
+            .create_view(&Default::default());
+        Self {
+            resolution,
+            surfel_resolution,
+            layers,
+            surfel_layers,
+            surfel_depth,
+            bind_group,
+            surfel_pass_bind_group,
+        }
+    }
+
+    /// Renders the first surface each of the first `lights` lights meets into its surfel map
+    /// (`vs_surfel` / `fs_surfel`; the light is the instance index).
+    fn record_surfel_pass(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        lights: usize,
+        casters: &[ShadowCaster<'_>],
+        bindings: &SurfelBindings<'_>,
+    ) {
+        for (light, views) in self.surfel_layers.iter().take(lights).enumerate() {
+            let attachments: Vec<Option<wgpu::RenderPassColorAttachment<'_>>> = views
+                .iter()
+                .map(|view| {
+                    Some(wgpu::RenderPassColorAttachment {
+                        view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            // Zero exitance: no surface.
+                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })
+                })
+                .collect();
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("cdrf surfel map"),
+                color_attachments: &attachments,
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &self.surfel_depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, bindings.frame, &[]);
+            pass.set_bind_group(3, &self.surfel_pass_bind_group, &[]);
+            let instance = light as u32;
+            for caster in casters {
+                let Some(pipeline) = caster.surfel_pipeline else {
+                    continue;
+                };
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(1, caster.material, &[]);
+                pass.set_bind_group(2, bindings.draws, &[caster.draw_offset]);
+                pass.set_vertex_buffer(0, caster.mesh.vertices.slice(..));
+                pass.set_index_buffer(caster.mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..caster.mesh.index_count, 0, instance..instance + 1);
+            }
+        }
     }
 }
 
@@ -296,37 +483,38 @@ fn scene_bounds(draws: &[Draw], meshes: &HashMap<MeshId, GpuMesh>) -> (Vec3, f32
     (centre, radius.max(1e-6))
 }
 
-/// The shadow maps (one depth layer per shadowed light, `resolution` texels per side) and the
-/// shading pipelines' bind group 3 reading them.
-fn create_shadow_maps(
+/// A 2D texture array of `layers` layers `side` texels square, sampled by the shaders and
+/// rendered into: its array view and one view per layer.
+fn layered_texture(
     device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    uniforms: &wgpu::Buffer,
-    resolution: u32,
-) -> (Vec<wgpu::TextureView>, wgpu::BindGroup) {
+    label: &str,
+    format: wgpu::TextureFormat,
+    side: u32,
+    layers: u32,
+) -> (wgpu::TextureView, Vec<wgpu::TextureView>) {
     let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("cdrf shadow maps"),
+        label: Some(label),
         size: wgpu::Extent3d {
-            width: resolution,
-            height: resolution,
-            depth_or_array_layers: MAX_SHADOW_LIGHTS as u32,
+            width: side,
+            height: side,
+            depth_or_array_layers: layers,
         },
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: SHADOW_FORMAT,
+        format,
         usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
         view_formats: &[],
     });
     let array = texture.create_view(&wgpu::TextureViewDescriptor {
-        label: Some("cdrf shadow maps (array)"),
+        label: Some(label),
         dimension: Some(wgpu::TextureViewDimension::D2Array),
         ..Default::default()
     });
-    let layers = (0..MAX_SHADOW_LIGHTS as u32)
+    let views = (0..layers)
         .map(|layer| {
             texture.create_view(&wgpu::TextureViewDescriptor {
-                label: Some("cdrf shadow map"),
+                label: Some(label),
                 dimension: Some(wgpu::TextureViewDimension::D2),
                 base_array_layer: layer,
                 array_layer_count: Some(1),
@@ -334,21 +522,7 @@ fn create_shadow_maps(
             })
         })
         .collect();
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("cdrf shadows"),
-        layout,
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: uniforms.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: wgpu::BindingResource::TextureView(&array),
-            },
-        ],
-    });
-    (layers, bind_group)
+    (array, views)
 }
 
 /// The depth-only pipeline of the shadow pass (no culling: the first surface whatever its

@@ -1,5 +1,5 @@
 //! The shading pipelines, built on demand and cached per target, shading model and
-//! non-local terms.
+//! non-local terms, and the surfel pass's pipelines (one per shading model).
 
 use std::collections::HashMap;
 
@@ -8,6 +8,7 @@ use cdrf_core::light::NonLocal;
 use crate::error::PrepareError;
 use crate::gpu_data::block_on;
 use crate::gpu_types::GpuVertex;
+use crate::non_local::{SURFEL_FORMAT, SURFEL_TARGETS};
 use crate::shaders::{Model, shading_shader_source};
 use crate::target::{LutFiltering, Options, TargetDesc};
 
@@ -19,6 +20,7 @@ pub(crate) struct Pipelines {
     shader: wgpu::ShaderModule,
     layout: wgpu::PipelineLayout,
     cache: HashMap<PipelineKey, wgpu::RenderPipeline>,
+    surfel_cache: HashMap<Model, wgpu::RenderPipeline>,
 }
 
 impl Pipelines {
@@ -40,6 +42,7 @@ impl Pipelines {
             shader,
             layout,
             cache: HashMap::new(),
+            surfel_cache: HashMap::new(),
         }
     }
 
@@ -69,7 +72,6 @@ impl Pipelines {
             return Ok(());
         }
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let flag = |on: bool| f64::from(u8::from(on));
         let constants = [
             ("MODEL", model as u32 as f64),
             (
@@ -79,6 +81,7 @@ impl Pipelines {
             ("ENCODE_SRGB", flag(target.encodes_srgb_in_shader())),
             ("SHADOWS", flag(non_local.shadows)),
             ("TRANSMISSION", flag(non_local.transmission)),
+            ("INTERREFLECTION", flag(non_local.interreflection)),
         ];
         let compilation_options = wgpu::PipelineCompilationOptions {
             constants: &constants,
@@ -136,4 +139,90 @@ impl Pipelines {
         self.cache.insert(key, pipeline);
         Ok(())
     }
+
+    /// The surfel pass's pipeline of a shading model, if built.
+    pub(crate) fn surfel(&self, model: Model) -> Option<&wgpu::RenderPipeline> {
+        self.surfel_cache.get(&model)
+    }
+
+    /// Builds the surfel pass's pipeline of a shading model unless cached: `vs_surfel` /
+    /// `fs_surfel` of the shading shader, into the surfel maps, no culling (the first surface
+    /// whatever its winding, as the shadow pass).
+    pub(crate) fn ensure_surfel(
+        &mut self,
+        device: &wgpu::Device,
+        options: &Options,
+        model: Model,
+    ) -> Result<(), PrepareError> {
+        if self.surfel_cache.contains_key(&model) {
+            return Ok(());
+        }
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let constants = [
+            ("MODEL", model as u32 as f64),
+            (
+                "MANUAL_FILTERING",
+                flag(options.lut_filtering == LutFiltering::Manual),
+            ),
+        ];
+        let compilation_options = wgpu::PipelineCompilationOptions {
+            constants: &constants,
+            ..Default::default()
+        };
+        let targets: [_; SURFEL_TARGETS] = std::array::from_fn(|_| {
+            Some(wgpu::ColorTargetState {
+                format: SURFEL_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("cdrf surfel pipeline"),
+            layout: Some(&self.layout),
+            vertex: wgpu::VertexState {
+                module: &self.shader,
+                entry_point: Some("vs_surfel"),
+                compilation_options: compilation_options.clone(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: GpuVertex::STRIDE,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &GpuVertex::ATTRIBUTES,
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: wgpu::TextureFormat::Depth32Float,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &self.shader,
+                entry_point: Some("fs_surfel"),
+                compilation_options,
+                targets: &targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        if let Some(error) = block_on(scope.pop()) {
+            return Err(PrepareError::Pipeline {
+                target: TargetDesc::new(SURFEL_FORMAT),
+                message: error.to_string(),
+            });
+        }
+        self.surfel_cache.insert(model, pipeline);
+        Ok(())
+    }
+}
+
+/// A boolean pipeline constant.
+fn flag(on: bool) -> f64 {
+    f64::from(u8::from(on))
 }

@@ -10,7 +10,7 @@ use crate::frame::{FrameDesc, ToCamera};
 use crate::gpu_types::{GpuDraw, GpuFrame, GpuLight, uniform_layout_entry, uniform_size};
 use crate::material::{GpuMaterialEntry, MaterialDesc, MaterialFactory, MaterialId};
 use crate::mesh::{GpuMesh, MeshDesc, MeshId};
-use crate::non_local::{NonLocalPass, ShadowCaster};
+use crate::non_local::{NonLocalPass, ShadowCaster, SurfelBindings};
 use crate::pipelines::Pipelines;
 use crate::shaders::{MAX_LIGHTS, Model};
 use crate::target::{Options, TargetDesc};
@@ -259,7 +259,7 @@ impl Renderer {
     ///     exposure: 1.0,
     ///     draws: &[Draw { mesh, material, world_from_model: Mat4::IDENTITY }],
     ///     // Cast shadows and transmission: prepare returns the shadow pass.
-    ///     non_local: NonLocal { shadows: true, transmission: true },
+    ///     non_local: NonLocal { shadows: true, transmission: true, interreflection: false },
     ///     mm_per_world_unit: 1.0,
     /// };
     /// let shadow_pass = renderer.prepare(device, queue, &frame)?;
@@ -310,6 +310,9 @@ impl Renderer {
             };
             self.pipelines
                 .ensure(device, &self.options, self.target, model, non_local)?;
+            if non_local.interreflection {
+                self.pipelines.ensure_surfel(device, &self.options, model)?;
+            }
             prepared.push(PreparedDraw {
                 model,
                 non_local,
@@ -338,6 +341,13 @@ impl Renderer {
                     Some(ShadowCaster {
                         mesh: self.meshes.get(&draw.mesh)?,
                         draw_offset: draw.offset,
+                        material: &self.materials.get(&draw.material)?.bind_group,
+                        // The curvature view sends out no light.
+                        surfel_pipeline: draw
+                            .non_local
+                            .interreflection
+                            .then(|| self.pipelines.surfel(draw.model))
+                            .flatten(),
                     })
                 })
                 .collect();
@@ -348,7 +358,10 @@ impl Renderer {
                 frame,
                 &self.meshes,
                 &casters,
-                &self.draw_bind_group,
+                SurfelBindings {
+                    frame: &self.frame_bind_group,
+                    draws: &self.draw_bind_group,
+                },
             ));
         }
         self.prepared = prepared;

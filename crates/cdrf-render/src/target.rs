@@ -100,6 +100,14 @@ pub struct Options {
     /// How much nearer the light than the local surface predicts an occluder must be to count,
     /// mm (on top of one texel times the surface's depth slope).
     pub shadow_bias_mm: f32,
+    /// Texels per side of each light's surfel map, the lit surface the inter-reflection
+    /// gathers from (used only when a frame turns [`NonLocal::interreflection`] on; the map
+    /// covers the same square as the shadow map, one sample per texel). Each vertex reads every
+    /// texel once per shadowed light, so the cost grows with its square; on the path-traced
+    /// knot 16 to 48 give the same whole-object error to ±1.5 points.
+    ///
+    /// [`NonLocal::interreflection`]: crate::NonLocal::interreflection
+    pub interreflection_resolution: u32,
 }
 
 impl Options {
@@ -115,6 +123,7 @@ impl Options {
         cull_back_faces: true,
         shadow_map_resolution: 512,
         shadow_bias_mm: 0.5,
+        interreflection_resolution: 16,
     };
 }
 

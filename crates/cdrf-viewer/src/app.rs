@@ -577,6 +577,8 @@ impl ViewerApp {
             .on_hover_text("Translucent visibility from a shadow map: parts hidden from the light by other parts, with a penumbra as wide as the material's scattering length");
         ui.checkbox(&mut self.settings.non_local.transmission, "transmission")
             .on_hover_text("Light through thin parts (and, with cast shadows, through occluders) by the transmission profile T(d, μ) measured with the table");
+        ui.checkbox(&mut self.settings.non_local.interreflection, "inter-reflection")
+            .on_hover_text("One bounce of light between parts of the object that face each other (as a knot's strands), from the lit surface the light sees");
         ui.separator();
 
         ui.heading("Light");

@@ -222,6 +222,8 @@ pub enum ModelName {
     MeasuredTransmission,
     /// The measured LUT with both non-local terms.
     MeasuredShadowsTransmission,
+    /// The measured LUT with both non-local terms and one inter-reflection.
+    MeasuredAll,
     /// Kubo's Gaussian CDRF.
     Gaussian,
     /// Kubo's Gaussian CDRF with translucent visibility (penumbra = its σ).
@@ -232,11 +234,12 @@ pub enum ModelName {
 
 impl ModelName {
     /// All of them, in table order.
-    pub const ALL: [ModelName; 7] = [
+    pub const ALL: [ModelName; 8] = [
         ModelName::Measured,
         ModelName::MeasuredShadows,
         ModelName::MeasuredTransmission,
         ModelName::MeasuredShadowsTransmission,
+        ModelName::MeasuredAll,
         ModelName::Gaussian,
         ModelName::GaussianShadows,
         ModelName::Lambert,
@@ -248,11 +251,12 @@ impl ModelName {
             ModelName::Measured | ModelName::Gaussian | ModelName::Lambert => (false, false),
             ModelName::MeasuredShadows | ModelName::GaussianShadows => (true, false),
             ModelName::MeasuredTransmission => (false, true),
-            ModelName::MeasuredShadowsTransmission => (true, true),
+            ModelName::MeasuredShadowsTransmission | ModelName::MeasuredAll => (true, true),
         };
         NonLocal {
             shadows,
             transmission,
+            interreflection: self == ModelName::MeasuredAll,
         }
     }
 
@@ -263,6 +267,7 @@ impl ModelName {
             ModelName::MeasuredShadows => "measured + shadows",
             ModelName::MeasuredTransmission => "measured + transmission",
             ModelName::MeasuredShadowsTransmission => "measured + shadows + transmission",
+            ModelName::MeasuredAll => "measured + shadows + transmission + inter-reflection",
             ModelName::Gaussian => "Gaussian",
             ModelName::GaussianShadows => "Gaussian + shadows",
             ModelName::Lambert => "Lambert",
@@ -475,7 +480,8 @@ pub fn run_case(
             ModelName::Measured
             | ModelName::MeasuredShadows
             | ModelName::MeasuredTransmission
-            | ModelName::MeasuredShadowsTransmission => measured,
+            | ModelName::MeasuredShadowsTransmission
+            | ModelName::MeasuredAll => measured,
             ModelName::Gaussian | ModelName::GaussianShadows => gaussian,
             ModelName::Lambert => lambert,
         };
