@@ -137,16 +137,16 @@ fn main() -> Result<(), Box<dyn Error>> {
                 non_local: both,
             },
             Variant {
-                name: "measured + all (inter-refl. 32²)",
+                name: "measured + all (inter-refl. 16²)",
                 material: Material::Measured(lut.clone()),
                 options: fast,
                 non_local: NonLocal::ALL,
             },
             Variant {
-                name: "measured + all (inter-refl. 16²)",
+                name: "measured + all (inter-refl. 32²)",
                 material: Material::Measured(lut.clone()),
                 options: Options {
-                    interreflection_resolution: 16,
+                    interreflection_resolution: 32,
                     ..fast
                 },
                 non_local: NonLocal::ALL,
@@ -271,6 +271,18 @@ fn main() -> Result<(), Box<dyn Error>> {
                 "measured + shadows + transm.",
                 "measured",
                 " (goal ≤ 1.5)",
+            ),
+            (
+                "all (16²) / measured",
+                "measured + all (inter-refl. 16²)",
+                "measured",
+                " (goal ≤ 1.5)",
+            ),
+            (
+                "all (32²) / measured",
+                "measured + all (inter-refl. 32²)",
+                "measured",
+                "",
             ),
             (
                 "no penumbra / measured",

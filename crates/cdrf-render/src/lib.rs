@@ -83,7 +83,7 @@
 //! Bind groups 0 (frame: camera, lights), 1 (material: LUT, view correction, parameters),
 //! 2 (draw: transform, dynamic offset) and 3 (shadow maps) are set inside [`Renderer::render`].
 //!
-//! # Beyond the poster: cast shadows and transmission
+//! # Beyond the poster: cast shadows, transmission, inter-reflection
 //! [`FrameDesc::non_local`] turns on translucent visibility (cast shadows with a penumbra as wide
 //! as the material's scattering length) and transmission T(d, μ) (see
 //! [`cdrf_core::translucency`]). Then `prepare` also records a depth-only shadow pass — an
@@ -95,6 +95,10 @@
 //! Lambert's hard shadows per pixel). A measured table carries its material terms
 //! (LUT file format version 3, or 2 without the entry cosine); the Gaussian CDRF uses its σ as scattering length and has no
 //! T(d); Lambert gets hard shadows.
+//!
+//! [`NonLocal::interreflection`] adds one bounce of light between parts of the draws that face
+//! each other: the same command buffer then also holds a surfel pass (each shadowed light's lit
+//! surface in a small map, [`Options::interreflection_resolution`]), which every vertex gathers.
 
 mod error;
 mod frame;
