@@ -1,7 +1,8 @@
 //! The comparison with path-traced references (`cdrf-viewer compare`) on small cases: the
 //! r = 35 mm wax sphere at 128 × 128 pixels (the 512 × 512 reference box-averaged 4 × 4), where
 //! the measured CDRF must beat both the Gaussian CDRF and Lambert in every region and metric and
-//! the non-local terms must change nothing; and the torus, where they must cut the error.
+//! the non-local terms must change nothing; the torus, where they must cut the error; and the
+//! knot, where the inter-reflection must light the shadow side between the strands.
 
 use std::process::Command;
 
@@ -60,8 +61,8 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
     let lit = result.metrics(Region::Lit, ModelName::Measured).unwrap();
     assert!(lit.relative_rmse < 0.02, "{lit:?}");
 
-    // An isolated sphere is its own osculating sphere: cast shadows and transmission change
-    // nothing (to 0.1 % of the error).
+    // An isolated sphere is its own osculating sphere and convex: cast shadows, transmission and
+    // the inter-reflection change nothing (to 0.1 % of the error).
     for region in [
         Region::Whole,
         Region::Lit,
@@ -73,6 +74,7 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
             ModelName::MeasuredShadows,
             ModelName::MeasuredTransmission,
             ModelName::MeasuredShadowsTransmission,
+            ModelName::MeasuredAll,
         ] {
             let other = result.metrics(region, model).unwrap();
             assert!(
@@ -211,4 +213,58 @@ fn compare_command_writes_json_markdown_a_figure_and_the_results_page() {
     assert!(!output.status.success());
     assert!(stderr.contains("no case named teapot"), "{stderr}");
     assert!(!dir.path().join("out2").exists());
+}
+
+/// The knot's strands face each other: one inter-reflection must light its shadow side (at 512 px:
+/// render / reference past θ = 100° from 0.12–0.19 to 0.36–0.54, whole object 25.2 % → 21.1 %)
+/// and leave its lit side alone.
+#[test]
+fn interreflection_lights_the_knot_between_its_strands() {
+    let device = HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|e| panic!("{e}"));
+    let models =
+        Models::from_fit_folder(&data_dir().join("wax-fit")).unwrap_or_else(|e| panic!("{e}"));
+    let result = run_case(&device, &case("knot"), &models, Some(128), None)
+        .unwrap_or_else(|e| panic!("{e}"));
+    println!(
+        "{}",
+        cdrf_viewer::compare::markdown(std::slice::from_ref(&result))
+    );
+    let row = |model| {
+        result
+            .theta
+            .models
+            .iter()
+            .find(|row| row.model == model)
+            .unwrap()
+            .clone()
+    };
+    let (before, after) = (
+        row(ModelName::MeasuredShadowsTransmission),
+        row(ModelName::MeasuredAll),
+    );
+    // Bins 0–50° and 50–70°: as before, within 5 %.
+    for bin in 0..2 {
+        assert!(
+            (after.bins[bin] / before.bins[bin] - 1.0).abs() < 0.05,
+            "lit bin {bin}: {} vs {}",
+            after.bins[bin],
+            before.bins[bin]
+        );
+    }
+    // Bins 100–110°, 110–130°, 130–180°: at least half as bright again, and past 0.3 of the truth.
+    for bin in 5..8 {
+        assert!(
+            after.bins[bin] > 1.5 * before.bins[bin] && after.bins[bin] > 0.3,
+            "shadow-side bin {bin}: {} (before {})",
+            after.bins[bin],
+            before.bins[bin]
+        );
+    }
+    let rmse = |model| result.metrics(Region::Whole, model).unwrap().relative_rmse;
+    assert!(
+        rmse(ModelName::MeasuredAll) < 0.92 * rmse(ModelName::MeasuredShadowsTransmission),
+        "whole object: {} vs {}",
+        rmse(ModelName::MeasuredAll),
+        rmse(ModelName::MeasuredShadowsTransmission)
+    );
 }
