@@ -32,6 +32,7 @@ pub mod atomic;
 pub mod block_error;
 pub mod catmull_rom;
 pub mod curvature;
+pub mod diffusion;
 pub mod gaussian;
 pub mod gaussian_file;
 pub mod image_file;

@@ -38,6 +38,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::catmull_rom::{self, Ends};
+use crate::diffusion::DiffusionProfile;
 use crate::translucency::Translucency;
 
 /// A curvature-dependent reflectance function f(κ, θ).
@@ -277,6 +278,7 @@ pub struct CdrfLut {
     view_correction: ViewCorrection,
     coverage: Option<Vec<TexelCoverage>>,
     translucency: Option<Translucency>,
+    diffusion_profile: Option<DiffusionProfile>,
     provenance: BTreeMap<String, String>,
 }
 
@@ -312,6 +314,7 @@ impl CdrfLut {
             view_correction: ViewCorrection::identity(),
             coverage: None,
             translucency: None,
+            diffusion_profile: None,
             provenance: BTreeMap::new(),
         })
     }
@@ -384,6 +387,19 @@ impl CdrfLut {
     /// or later written by cdrf-fit do; version 1 files and tabulated models do not).
     pub fn translucency(&self) -> Option<&Translucency> {
         self.translucency.as_ref()
+    }
+
+    /// Attaches the diffusion profile fitted to the same spheres as the table. See
+    /// [`crate::diffusion`].
+    pub fn with_diffusion_profile(mut self, profile: DiffusionProfile) -> Self {
+        self.diffusion_profile = Some(profile);
+        self
+    }
+
+    /// The diffusion profile, when the table carries one (files of format version 4 or later
+    /// written by cdrf-fit do).
+    pub fn diffusion_profile(&self) -> Option<&DiffusionProfile> {
+        self.diffusion_profile.as_ref()
     }
 
     /// Records where the table came from (tool, input folder, date, …). Stored in the file.

@@ -1,6 +1,6 @@
 //! The LUT file: an OpenEXR any image tool can open.
 //!
-//! # Layout (format version 3)
+//! # Layout (format version 4)
 //! A multi-part OpenEXR file, 32-bit float, lossless (ZIP) compression:
 //!
 //! | part (layer name) | size (width × height) | channels | content |
@@ -25,10 +25,14 @@
 //! | `cdrf.scattering_length_mm` | v3f | version 2, optional: [`Translucency::scattering_length_mm`] (R, G, B) |
 //! | `cdrf.transmission.amplitude`, `cdrf.transmission.length_mm` | v3f | version 2, optional: A and ℓ of T(d, μ) = A·μ^p·exp(−d/ℓ), [`TransmissionProfile`] |
 //! | `cdrf.transmission.entry_cosine_power` | float | version 3, optional: p |
+//! | `cdrf.diffusion.terms` | int | version 4, optional: the number n of terms of the [`DiffusionProfile`] (1 … 16) |
+//! | `cdrf.diffusion.term_K.length_mm`, `cdrf.diffusion.term_K.weight` | float, v3f | version 4, with `terms`: ℓ and w (R, G, B) of term K = 0 … n − 1 |
+//! | `cdrf.diffusion.entry_cosine_power` | float | version 4, with `terms`: p of the entry factor |
 //!
-//! The translucency attributes come together or not at all. Older files still load: version 2
-//! files have no p and mean T(d) alone (p = 0); version 1 files have no translucency
-//! ([`CdrfLut::translucency`] is `None`).
+//! The translucency attributes come together or not at all, and so do the diffusion ones. Older
+//! files still load: versions 1–3 have no diffusion profile ([`CdrfLut::diffusion_profile`] is
+//! `None`); version 2 files have no p and mean T(d) alone (p = 0); version 1 files have no
+//! translucency ([`CdrfLut::translucency`] is `None`).
 //!
 //! The axis and radiance texts are checked when reading, so a file written under another
 //! convention is refused instead of misread.
@@ -43,11 +47,12 @@ use exr::prelude::{
 use glam::Vec3;
 use thiserror::Error;
 
+use crate::diffusion::{DiffusionProfile, MAX_PROFILE_TERMS, ProfileTerm};
 use crate::lut::{CdrfLut, CurvatureAxis, LutError, TexelCoverage, ViewCorrection};
 use crate::translucency::{Translucency, TransmissionProfile};
 
 /// The version this crate writes and the newest it reads.
-pub const FORMAT_VERSION: i32 = 3;
+pub const FORMAT_VERSION: i32 = 4;
 
 const LUT_LAYER: &str = "cdrf.lut";
 const VIEW_LAYER: &str = "cdrf.view";
@@ -65,6 +70,10 @@ const ATTR_SCATTERING_LENGTH: &str = "cdrf.scattering_length_mm";
 const ATTR_TRANSMISSION_AMPLITUDE: &str = "cdrf.transmission.amplitude";
 const ATTR_TRANSMISSION_LENGTH: &str = "cdrf.transmission.length_mm";
 const ATTR_TRANSMISSION_ENTRY_POWER: &str = "cdrf.transmission.entry_cosine_power";
+const ATTR_DIFFUSION_TERMS: &str = "cdrf.diffusion.terms";
+const ATTR_DIFFUSION_ENTRY_POWER: &str = "cdrf.diffusion.entry_cosine_power";
+/// The first version with a diffusion profile.
+const DIFFUSION_SINCE_VERSION: i32 = 4;
 /// The first version whose transmission profile has an entry cosine power.
 const ENTRY_POWER_SINCE_VERSION: i32 = 3;
 const CURVATURE_AXIS: &str = "uniform kappa [min, max] mm^-1, rows at the ends";
@@ -341,6 +350,12 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
         }
     }
 
+    if version >= DIFFUSION_SINCE_VERSION
+        && let Some(profile) = read_diffusion_profile(attributes).map_err(not_ours)?
+    {
+        lut = lut.with_diffusion_profile(profile);
+    }
+
     let mut provenance: Vec<(String, String)> = attributes
         .iter()
         .filter_map(|(name, value)| {
@@ -423,12 +438,82 @@ fn lut_layer(lut: &CdrfLut) -> Layer<AnyChannels<FlatSamples>> {
             AttributeValue::F32(translucency.transmission.entry_cosine_power),
         );
     }
+    if let Some(profile) = lut.diffusion_profile() {
+        other.insert(
+            Text::from(ATTR_DIFFUSION_TERMS),
+            AttributeValue::I32(profile.terms().len() as i32),
+        );
+        for (k, term) in profile.terms().iter().enumerate() {
+            let [x, y, z] = term.weight;
+            other.insert(
+                Text::from(diffusion_term_attribute(k, "length_mm").as_str()),
+                AttributeValue::F32(term.length_mm),
+            );
+            other.insert(
+                Text::from(diffusion_term_attribute(k, "weight").as_str()),
+                AttributeValue::FloatVec3((x, y, z)),
+            );
+        }
+        other.insert(
+            Text::from(ATTR_DIFFUSION_ENTRY_POWER),
+            AttributeValue::F32(profile.entry_cosine_power()),
+        );
+    }
     Layer::new(
         (lut.theta_count(), axis.count),
         attributes,
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(channels.into()),
     )
+}
+
+fn diffusion_term_attribute(term: usize, what: &str) -> String {
+    format!("cdrf.diffusion.term_{term}.{what}")
+}
+
+/// The diffusion profile of a version 4 `cdrf.lut` header, `None` when it has none; the error
+/// says which attribute is missing or wrong.
+fn read_diffusion_profile(
+    attributes: &std::collections::HashMap<Text, AttributeValue>,
+) -> Result<Option<DiffusionProfile>, String> {
+    let get = |name: &str| attributes.get(&Text::from(name));
+    let count = match get(ATTR_DIFFUSION_TERMS) {
+        None => {
+            if get(ATTR_DIFFUSION_ENTRY_POWER).is_some() {
+                return Err(format!(
+                    "`{ATTR_DIFFUSION_ENTRY_POWER}` without `{ATTR_DIFFUSION_TERMS}`"
+                ));
+            }
+            return Ok(None);
+        }
+        Some(AttributeValue::I32(n)) if (1..=MAX_PROFILE_TERMS as i32).contains(n) => *n as usize,
+        Some(_) => {
+            return Err(format!(
+                "`{ATTR_DIFFUSION_TERMS}` must be an int from 1 to {MAX_PROFILE_TERMS}"
+            ));
+        }
+    };
+    let float = |name: &str| match get(name) {
+        Some(AttributeValue::F32(v)) => Ok(*v),
+        _ => Err(format!("float attribute `{name}` missing")),
+    };
+    let terms = (0..count)
+        .map(|k| {
+            let length_mm = float(&diffusion_term_attribute(k, "length_mm"))?;
+            let name = diffusion_term_attribute(k, "weight");
+            match get(&name) {
+                Some(AttributeValue::FloatVec3((x, y, z))) => Ok(ProfileTerm {
+                    length_mm,
+                    weight: [*x, *y, *z],
+                }),
+                _ => Err(format!("float vector (v3f) attribute `{name}` missing")),
+            }
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    let power = float(ATTR_DIFFUSION_ENTRY_POWER)?;
+    DiffusionProfile::new(terms, power)
+        .map(Some)
+        .map_err(|error| format!("diffusion profile: {error}"))
 }
 
 fn view_layer(view: &ViewCorrection) -> Layer<AnyChannels<FlatSamples>> {

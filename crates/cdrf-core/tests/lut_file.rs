@@ -326,3 +326,126 @@ fn translucency_attributes_come_together() {
     let error = read_lut(&path).unwrap_err();
     assert!(error.to_string().contains("must come together"), "{error}");
 }
+
+fn wax_like_diffusion() -> cdrf_core::diffusion::DiffusionProfile {
+    use cdrf_core::diffusion::{DiffusionProfile, ProfileTerm};
+    DiffusionProfile::new(
+        vec![
+            ProfileTerm {
+                length_mm: 0.5,
+                weight: [0.2, 0.3, 0.4],
+            },
+            ProfileTerm {
+                length_mm: 6.0,
+                weight: [0.6, 0.4, 0.2],
+            },
+        ],
+        0.8,
+    )
+    .unwrap()
+}
+
+#[test]
+fn diffusion_profile_round_trips() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("measured.exr");
+    let lut = fitted_like_table()
+        .with_translucency(wax_like_translucency())
+        .with_diffusion_profile(wax_like_diffusion());
+    write_lut(&lut, &path).unwrap();
+    let back = read_lut(&path).unwrap();
+    assert_eq!(back.diffusion_profile(), Some(&wax_like_diffusion()));
+    assert_eq!(back, lut);
+}
+
+/// `fixtures/lut-v3.exr` is the bundled wax fit as format version 3 wrote it (before the
+/// diffusion profile): it must keep loading, with its translucency and no profile.
+#[test]
+fn a_version_3_file_still_loads() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/lut-v3.exr");
+    let lut = read_lut(&path).unwrap();
+    assert_eq!(lut.diffusion_profile(), None);
+    let t = lut
+        .translucency()
+        .expect("version 3 file with translucency");
+    assert_eq!(t.transmission.entry_cosine_power, 1.0);
+}
+
+#[test]
+fn diffusion_attributes_are_checked() {
+    use exr::prelude::{AttributeValue, Text};
+    let with_profile = |edit: &dyn Fn(&mut exr::prelude::LayerAttributes)| {
+        tampered(|a| {
+            a.other
+                .insert(Text::from("cdrf.diffusion.terms"), AttributeValue::I32(2));
+            for (k, length) in [(0, 0.5), (1, 6.0)] {
+                a.other.insert(
+                    Text::from(format!("cdrf.diffusion.term_{k}.length_mm").as_str()),
+                    AttributeValue::F32(length),
+                );
+                a.other.insert(
+                    Text::from(format!("cdrf.diffusion.term_{k}.weight").as_str()),
+                    AttributeValue::FloatVec3((0.3, 0.2, 0.1)),
+                );
+            }
+            a.other.insert(
+                Text::from("cdrf.diffusion.entry_cosine_power"),
+                AttributeValue::F32(0.8),
+            );
+            edit(a);
+        })
+    };
+    // Complete: loads.
+    let (_dir, path) = with_profile(&|_| {});
+    let lut = read_lut(&path).unwrap();
+    assert_eq!(lut.diffusion_profile().unwrap().terms().len(), 2);
+    // A missing weight, a count out of range, a negative weight, lengths out of order and a
+    // power without terms are each refused with the attribute named.
+    for (edit, says) in [
+        (
+            Box::new(|a: &mut exr::prelude::LayerAttributes| {
+                a.other.remove(&Text::from("cdrf.diffusion.term_1.weight"));
+            }) as Box<dyn Fn(&mut exr::prelude::LayerAttributes)>,
+            "cdrf.diffusion.term_1.weight",
+        ),
+        (
+            Box::new(|a: &mut exr::prelude::LayerAttributes| {
+                a.other
+                    .insert(Text::from("cdrf.diffusion.terms"), AttributeValue::I32(17));
+            }),
+            "cdrf.diffusion.terms",
+        ),
+        (
+            Box::new(|a: &mut exr::prelude::LayerAttributes| {
+                a.other.insert(
+                    Text::from("cdrf.diffusion.term_0.weight"),
+                    AttributeValue::FloatVec3((0.3, -0.2, 0.1)),
+                );
+            }),
+            "weight",
+        ),
+        (
+            Box::new(|a: &mut exr::prelude::LayerAttributes| {
+                a.other.insert(
+                    Text::from("cdrf.diffusion.term_1.length_mm"),
+                    AttributeValue::F32(0.1),
+                );
+            }),
+            "length",
+        ),
+        (
+            Box::new(|a: &mut exr::prelude::LayerAttributes| {
+                a.other.remove(&Text::from("cdrf.diffusion.terms"));
+            }),
+            "without `cdrf.diffusion.terms`",
+        ),
+    ] {
+        let (_dir, path) = with_profile(&*edit);
+        let error = read_lut(&path).unwrap_err();
+        assert!(
+            matches!(error, LutFileError::NotACdrfLut { .. }) && error.to_string().contains(says),
+            "{error}"
+        );
+        assert!(error.to_string().contains("tampered.exr"), "{error}");
+    }
+}

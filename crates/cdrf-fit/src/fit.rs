@@ -10,6 +10,9 @@ use serde::Serialize;
 
 use crate::curves::{CurveFits, CurveSettings, SphereSamples, fit_curves};
 use crate::dataset::{Dataset, SphereEntry};
+use crate::diffusion::{
+    DiffusionFit, DiffusionFitError, DiffusionSettings, fit_diffusion_curve_fit,
+};
 use crate::evaluate::{SphereError, sphere_error};
 use crate::gaussian_fit::{GaussianFit, fit_gaussian};
 use crate::image_io::{ImageError, LinearImage, load_linear_image};
@@ -22,7 +25,7 @@ use crate::transmission::{
 };
 
 /// Settings of a fit. `Default` is what `cdrf-fit` uses.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct FitOptions {
     /// θ resolution, φ resolution and view model of the curve fit.
     pub curves: CurveSettings,
@@ -36,6 +39,8 @@ pub struct FitOptions {
     pub min_samples: usize,
     /// Which shadow-side nodes the transmission profile is fitted to.
     pub transmission: TransmissionSettings,
+    /// The basis and entry powers of the diffusion profile fit.
+    pub diffusion: DiffusionSettings,
 }
 
 impl Default for FitOptions {
@@ -47,6 +52,7 @@ impl Default for FitOptions {
             manifest_tolerance_px: 3.0,
             min_samples: 2000,
             transmission: TransmissionSettings::default(),
+            diffusion: DiffusionSettings::default(),
         }
     }
 }
@@ -175,6 +181,8 @@ pub struct Timings {
     pub gaussian_s: f64,
     /// Fitting the transmission profile.
     pub transmission_s: f64,
+    /// Fitting the diffusion profile.
+    pub diffusion_s: f64,
     /// Measuring errors.
     pub evaluation_s: f64,
     /// Everything.
@@ -195,6 +203,11 @@ pub struct Fit {
     pub transmission: Result<TransmissionFit, TransmissionError>,
     /// The settings the transmission fit ran with (also when it failed).
     pub transmission_settings: TransmissionSettings,
+    /// The diffusion profile fitted to all spheres' curves, or why it could not be. When it
+    /// was, `lut` carries the profile ([`CdrfLut::diffusion_profile`]).
+    pub diffusion: Result<DiffusionFit, DiffusionFitError>,
+    /// The settings the profile fit ran with (also when it failed).
+    pub diffusion_settings: DiffusionSettings,
     /// The fitted curves (chosen model and the poster's).
     pub curves: CurveFits,
     /// The chosen fit's curves as they entered the table (filled and smoothed along θ), per
@@ -418,6 +431,14 @@ pub fn fit_samples(
     timings.transmission_s = started.elapsed().as_secs_f64();
 
     let started = Instant::now();
+    let diffusion = fit_diffusion_curve_fit(&curves.chosen, &curvatures, &options.diffusion);
+    let lut = match &diffusion {
+        Ok(fit) => lut.with_diffusion_profile(fit.profile.clone()),
+        Err(_) => lut,
+    };
+    timings.diffusion_s = started.elapsed().as_secs_f64();
+
+    let started = Instant::now();
     let errors = samples
         .par_iter()
         .enumerate()
@@ -461,6 +482,7 @@ pub fn fit_samples(
         + timings.table_s
         + timings.gaussian_s
         + timings.transmission_s
+        + timings.diffusion_s
         + timings.evaluation_s;
 
     Ok(Fit {
@@ -468,6 +490,8 @@ pub fn fit_samples(
         gaussian,
         transmission,
         transmission_settings: options.transmission,
+        diffusion,
+        diffusion_settings: options.diffusion.clone(),
         curves,
         table_curves,
         samples,

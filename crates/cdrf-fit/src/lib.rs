@@ -22,6 +22,7 @@
 
 pub mod curves;
 pub mod dataset;
+pub mod diffusion;
 pub mod evaluate;
 pub mod fit;
 pub mod gaussian_fit;

@@ -1,7 +1,8 @@
 //! `cdrf-fit DIR --out OUTDIR`: a measured CDRF from a folder of sphere photographs.
 //!
 //! Reads `DIR/cdrf-dataset.toml`, fits, and writes `measured.exr` (with the material's
-//! translucency when the shadow sides allow a transmission fit), `gaussian.toml`,
+//! translucency when the shadow sides allow a transmission fit, and the diffusion profile),
+//! `gaussian.toml`,
 //! `report.json` and plots into `OUTDIR` (see `cdrf_fit::outputs`). The input folder is never
 //! written to.
 
@@ -161,6 +162,36 @@ fn run(args: Args) -> anyhow::Result<()> {
                 cdrf_fit::outputs::MEASURED_LUT
             ),
         }
+        match &fit.diffusion {
+            Ok(diffusion) => {
+                let rms = diffusion.relative_rms;
+                eprintln!(
+                    "diffusion profile R(d): {} terms, entry factor mu^{:.2}, albedo [{:.3}, {:.3}, {:.3}]; alone it reproduces the spheres to [{:.1}, {:.1}, {:.1}] % RMS",
+                    diffusion.profile.terms().len(),
+                    diffusion.profile.entry_cosine_power(),
+                    diffusion.profile.albedo()[0],
+                    diffusion.profile.albedo()[1],
+                    diffusion.profile.albedo()[2],
+                    100.0 * rms[0],
+                    100.0 * rms[1],
+                    100.0 * rms[2],
+                );
+                eprintln!("radius  profile alone: rel. RMS (G)  lit side (G)  shadow side (G)");
+                for sphere in &diffusion.spheres {
+                    eprintln!(
+                        "{:>4.0} mm  {:>20.1} %  {:>11.2} x  {:>14.2} x",
+                        sphere.radius_mm,
+                        100.0 * sphere.relative_rms[1],
+                        sphere.lit_ratio[1],
+                        sphere.shadow_ratio[1],
+                    );
+                }
+            }
+            Err(error) => eprintln!(
+                "warning: no diffusion profile ({error}); {} has none",
+                cdrf_fit::outputs::MEASURED_LUT
+            ),
+        }
         for path in &written {
             eprintln!("wrote {}", path.display());
         }
@@ -172,6 +203,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             "view_model": report.view_model,
             "gaussian": report.gaussian,
             "transmission": report.transmission,
+            "diffusion": report.diffusion,
             "measured_error_lit_and_terminator": fit.errors.iter().map(|e| e.measured.lit_and_terminator.mean_relative_error).collect::<Vec<_>>(),
             "gaussian_error_lit_and_terminator": fit.errors.iter().map(|e| e.gaussian.lit_and_terminator.mean_relative_error).collect::<Vec<_>>(),
             "timings": report.timings,

@@ -7,6 +7,7 @@
 //! | `report.json` | per-radius curves, sample counts, residuals, g(φ), errors, the transmission profile and its quality, timings ([`Report`]) |
 //! | `radiance_vs_theta.svg` | radiance against θ per radius, raw (all φ) and φ-corrected: the poster's Fig. 2 |
 //! | `view_correction.svg` | g(φ), and the θ-dependent correction at a few θ |
+//! | `profile.svg` | the diffusion profile as the light leaving per mm of distance, 2π·d·R(d), per channel (log), with its entry power and how well it alone reproduces the spheres |
 //! | `transmission.svg` | the shadow side divided by the entry cosine μ = \|cos θ\| against the chord d the light crossed, per sphere and channel (log), and the fitted A·exp(−d/ℓ) of T(d, μ) = A·μ·exp(−d/ℓ) per channel |
 //! | `lut.png` | a picture of the table (θ across, κ down): in colour, and log₁₀ of green below |
 //!
@@ -43,6 +44,8 @@ pub const VIEW_PLOT: &str = "view_correction.svg";
 pub const LUT_PICTURE: &str = "lut.png";
 /// The transmission profile against the shadow sides.
 pub const TRANSMISSION_PLOT: &str = "transmission.svg";
+/// The diffusion profile.
+pub const PROFILE_PLOT: &str = "profile.svg";
 
 /// `gaussian.toml`: Kubo's Gaussian CDRF fitted to the same photographs (the format lives in
 /// cdrf-core, which reads it for rendering).
@@ -122,6 +125,8 @@ pub struct Report {
     pub gaussian: GaussianSummary,
     /// The transmission profile and the table's translucency.
     pub transmission: TransmissionSummary,
+    /// The diffusion profile fitted to all spheres.
+    pub diffusion: DiffusionSummary,
     /// Where the time went, seconds.
     pub timings: Timings,
 }
@@ -249,6 +254,101 @@ impl FittedTransmission {
     }
 }
 
+/// The diffusion profile fit in the report (`cdrf_fit::diffusion`). Per-channel values are
+/// `[R, G, B]`.
+#[derive(Clone, Debug, Serialize)]
+pub struct DiffusionSummary {
+    /// Why the profile could not be fitted; then `measured.exr` has no profile and the fields
+    /// below are absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// The fit, when it succeeded.
+    #[serde(flatten)]
+    pub fitted: Option<FittedDiffusion>,
+}
+
+/// A successful profile fit in the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct FittedDiffusion {
+    /// p of the entry factor max(μ, 0)^p.
+    pub entry_cosine_power: f32,
+    /// The terms: ℓ (mm) and w per channel of w·exp(−d/ℓ)/(2πℓd).
+    pub terms: Vec<DiffusionTerm>,
+    /// Σ w per channel: the diffuse albedo.
+    pub albedo: [f32; 3],
+    /// Relative RMS of the profile alone against all spheres' θ nodes, per channel.
+    pub relative_rms: [f32; 3],
+    /// Per sphere: how well the profile alone reproduces its f(θ).
+    pub spheres: Vec<DiffusionSphere>,
+    /// Each entry power tried and the relative RMS summed over the channels.
+    pub powers_tried: Vec<[f32; 2]>,
+}
+
+/// One term of [`FittedDiffusion`].
+#[derive(Clone, Debug, Serialize)]
+pub struct DiffusionTerm {
+    /// ℓ, mm.
+    pub length_mm: f32,
+    /// w per channel.
+    pub weight: [f32; 3],
+}
+
+/// One sphere of [`FittedDiffusion`].
+#[derive(Clone, Debug, Serialize)]
+pub struct DiffusionSphere {
+    /// Radius, mm.
+    pub radius_mm: f32,
+    /// Relative RMS of the profile alone against this sphere's f(θ), per channel.
+    pub relative_rms: [f32; 3],
+    /// Σ profile / Σ measured over θ < 90°, per channel.
+    pub lit_ratio: [f32; 3],
+    /// Σ profile / Σ measured over θ ≥ 90°, per channel.
+    pub shadow_ratio: [f32; 3],
+}
+
+impl DiffusionSummary {
+    fn new(fit: &Fit) -> Self {
+        match &fit.diffusion {
+            Ok(diffusion) => Self {
+                error: None,
+                fitted: Some(FittedDiffusion {
+                    entry_cosine_power: diffusion.profile.entry_cosine_power(),
+                    terms: diffusion
+                        .profile
+                        .terms()
+                        .iter()
+                        .map(|t| DiffusionTerm {
+                            length_mm: t.length_mm,
+                            weight: t.weight,
+                        })
+                        .collect(),
+                    albedo: diffusion.profile.albedo(),
+                    relative_rms: diffusion.relative_rms,
+                    spheres: diffusion
+                        .spheres
+                        .iter()
+                        .map(|s| DiffusionSphere {
+                            radius_mm: (s.radius_mm * 100.0).round() / 100.0,
+                            relative_rms: s.relative_rms,
+                            lit_ratio: s.lit_ratio,
+                            shadow_ratio: s.shadow_ratio,
+                        })
+                        .collect(),
+                    powers_tried: diffusion
+                        .powers_tried
+                        .iter()
+                        .map(|&(p, e)| [p, e])
+                        .collect(),
+                }),
+            },
+            Err(error) => Self {
+                error: Some(error.to_string()),
+                fitted: None,
+            },
+        }
+    }
+}
+
 /// Residuals of the curve fit, lit and terminator blocks of all spheres.
 #[derive(Clone, Debug, Serialize)]
 pub struct ViewResiduals {
@@ -334,6 +434,7 @@ impl Report {
                 relative_rms: fit.gaussian.relative_rms,
             },
             transmission: TransmissionSummary::new(fit),
+            diffusion: DiffusionSummary::new(fit),
             timings: fit.timings,
         }
     }
@@ -523,6 +624,7 @@ fn write_set(
     put(RADIANCE_PLOT, radiance_plot(fit).as_bytes())?;
     put(VIEW_PLOT, view_plot(fit).as_bytes())?;
     put(TRANSMISSION_PLOT, transmission_plot(fit).as_bytes())?;
+    put(PROFILE_PLOT, profile_plot(fit).as_bytes())?;
 
     let picture = lut_picture(fit);
     let mut png = Vec::new();
@@ -744,6 +846,48 @@ fn transmission_plot(fit: &Fit) -> String {
                     "T(d, 1) {name}: A = {:.3}, ℓ = {:.2} mm",
                     profile.amplitude[c], profile.length_mm[c]
                 ),
+                color,
+                curve,
+            ));
+        }
+    }
+    plot.to_svg()
+}
+
+/// The diffusion profile per channel as 2π·d·R(d) (the share of the light leaving per mm of
+/// distance), log, 0–40 mm; the title gives the entry power and how well the profile alone
+/// reproduces the spheres. When the fit failed, an empty plot titled with the reason.
+fn profile_plot(fit: &Fit) -> String {
+    let title = match &fit.diffusion {
+        Ok(d) => format!(
+            "Diffusion profile, entry factor μ^{:.2}; alone it fits the spheres to {:.1} / {:.1} / {:.1} % RMS",
+            d.profile.entry_cosine_power(),
+            100.0 * d.relative_rms[0],
+            100.0 * d.relative_rms[1],
+            100.0 * d.relative_rms[2]
+        ),
+        Err(error) => format!("Diffusion profile not fitted: {error}"),
+    };
+    let mut plot = LinePlot::new(
+        title,
+        "d, distance from where the light entered (mm)",
+        "2π·d·R(d), share of the light leaving per mm of distance (mm⁻¹)",
+    )
+    .with_log_y(true)
+    .with_x_range(0.0, 40.0)
+    .with_size_px(900, 560);
+    if let Ok(diffusion) = &fit.diffusion {
+        let albedo = diffusion.profile.albedo();
+        for (c, (name, color)) in CHANNEL_COLORS.into_iter().enumerate() {
+            let curve = (0..=400)
+                .map(|i| {
+                    let d = 0.1 * i as f64;
+                    (d as f32, diffusion.profile.ring_density_per_mm(d)[c] as f32)
+                })
+                .filter(|(_, v)| *v > 0.0)
+                .collect();
+            plot = plot.with_series(Series::new(
+                format!("{name}: albedo Σw = {:.3}", albedo[c]),
                 color,
                 curve,
             ));

@@ -15,10 +15,11 @@ use cdrf_core::image_file::linear_to_srgb;
 use cdrf_fit::image_io::load_linear_image;
 
 /// The files `cdrf-fit` writes into OUTDIR, sorted.
-const OUTPUTS: [&str; 7] = [
+const OUTPUTS: [&str; 8] = [
     "gaussian.toml",
     "lut.png",
     "measured.exr",
+    "profile.svg",
     "radiance_vs_theta.svg",
     "report.json",
     "transmission.svg",
@@ -685,6 +686,44 @@ fn three_spheres_give_every_output() {
         "{}",
         run.stderr
     );
+
+    // The diffusion profile: in measured.exr exactly as report.json gives it, plotted, printed.
+    let section = &report["diffusion"];
+    assert!(section.get("error").is_none(), "{section}");
+    let profile = lut
+        .diffusion_profile()
+        .expect("measured.exr carries the diffusion profile");
+    let terms = section["terms"].as_array().expect("terms");
+    assert_eq!(terms.len(), profile.terms().len());
+    for (term, json) in profile.terms().iter().zip(terms) {
+        // serde_json prints an f32 as its shortest round-tripping decimal.
+        assert_eq!(term.length_mm, json["length_mm"].as_f64().unwrap() as f32);
+        for c in 0..3 {
+            assert_eq!(term.weight[c], json["weight"][c].as_f64().unwrap() as f32);
+        }
+    }
+    assert_eq!(
+        profile.entry_cosine_power(),
+        section["entry_cosine_power"].as_f64().unwrap() as f32
+    );
+    // A translucent material: a diffuse albedo well inside (0, 1), and the profile alone close
+    // to the spheres it was fitted to.
+    for (c, albedo) in profile.albedo().into_iter().enumerate() {
+        assert!(albedo > 0.2 && albedo < 1.0, "albedo {c}: {albedo}");
+        let rms = section["relative_rms"][c].as_f64().unwrap();
+        assert!(rms > 0.0 && rms < 0.3, "relative RMS {c}: {rms}");
+    }
+    assert_eq!(section["spheres"].as_array().map(Vec::len), Some(3));
+    let svg = std::fs::read_to_string(cmd.out().join("profile.svg")).expect("plot");
+    assert!(
+        svg.starts_with("<svg") && svg.contains("albedo"),
+        "profile.svg"
+    );
+    assert!(
+        run.stderr.contains("diffusion profile R(d)"),
+        "{}",
+        run.stderr
+    );
 }
 
 #[test]
@@ -694,7 +733,14 @@ fn json_summary_on_stdout_and_quiet_stderr() {
     assert!(run.stderr.is_empty(), "--quiet printed:\n{}", run.stderr);
     let summary: serde_json::Value =
         serde_json::from_str(&run.stdout).expect("stdout is one JSON document");
-    for key in ["outputs", "spheres", "gaussian", "transmission", "timings"] {
+    for key in [
+        "outputs",
+        "spheres",
+        "gaussian",
+        "transmission",
+        "diffusion",
+        "timings",
+    ] {
         assert!(summary.get(key).is_some(), "no {key:?} in {summary}");
     }
     assert_eq!(summary["spheres"], 2);

@@ -72,7 +72,7 @@
 
 mod kubo;
 mod profile;
-mod quadrature;
+pub(crate) mod quadrature;
 mod ring;
 
 use std::f64::consts::{PI, TAU};
@@ -215,7 +215,7 @@ fn clamped_cos(x: f64) -> f64 {
 /// Maps any angle onto `[0, π]` using the symmetries of both models (`f` is even and 2π-periodic
 /// in θ because `cos⁺` is and the kernels are even).
 #[inline]
-fn fold_theta(theta_rad: f64) -> f64 {
+pub(crate) fn fold_theta(theta_rad: f64) -> f64 {
     let t = theta_rad.rem_euclid(TAU);
     if t > PI { TAU - t } else { t }
 }

@@ -2,7 +2,7 @@
 //! fitters need; an adaptive rule would make the model jump when its subdivision changes).
 
 /// Positive half of the 8-point Gauss–Legendre rule on `[-1, 1]`: `(node, weight)`.
-pub(super) const GAUSS_LEGENDRE_8: [(f64, f64); 4] = [
+pub(crate) const GAUSS_LEGENDRE_8: [(f64, f64); 4] = [
     (0.183_434_642_495_649_8, 0.362_683_783_378_362),
     (0.525_532_409_916_329, 0.313_706_645_877_887_4),
     (0.796_666_477_413_626_8, 0.222_381_034_453_374_45),
@@ -10,7 +10,7 @@ pub(super) const GAUSS_LEGENDRE_8: [(f64, f64); 4] = [
 ];
 
 /// Positive half of the 16-point Gauss–Legendre rule on `[-1, 1]`: `(node, weight)`.
-pub(super) const GAUSS_LEGENDRE_16: [(f64, f64); 8] = [
+pub(crate) const GAUSS_LEGENDRE_16: [(f64, f64); 8] = [
     (0.095_012_509_837_637_44, 0.189_450_610_455_068_47),
     (0.281_603_550_779_258_9, 0.182_603_415_044_923_6),
     (0.458_016_777_657_227_37, 0.169_156_519_395_002_56),
@@ -24,7 +24,7 @@ pub(super) const GAUSS_LEGENDRE_16: [(f64, f64); 8] = [
 /// Calls `visit(x, w)` for every node `x` of the symmetric rule `half` mapped onto `[a, b]`, with
 /// `w` the node's weight already scaled by the interval, so `Σ w·f(x) ≈ ∫ₐᵇ f`.
 #[inline]
-pub(super) fn for_each_node<const N: usize>(
+pub(crate) fn for_each_node<const N: usize>(
     half: &[(f64, f64); N],
     a: f64,
     b: f64,
@@ -41,7 +41,7 @@ pub(super) fn for_each_node<const N: usize>(
 
 /// `∫ₐᵇ f` with the symmetric rule `half`.
 #[inline]
-pub(super) fn integrate<const N: usize>(
+pub(crate) fn integrate<const N: usize>(
     half: &[(f64, f64); N],
     a: f64,
     b: f64,
