@@ -216,7 +216,7 @@ pub fn fit_diffusion(
     /// One entry power's fit.
     struct Candidate {
         power: f32,
-        cost: f32,
+        relative_rms: [f32; 3],
         design: Vec<Vec<f64>>,
         weights: [Vec<f64>; 3],
     }
@@ -225,14 +225,17 @@ pub fn fit_diffusion(
     for &power in &settings.entry_cosine_powers {
         let design = design_matrix(&nodes, &lengths, f64::from(power));
         let weights: [Vec<f64>; 3] = std::array::from_fn(|c| channel_weights(&nodes, &design, c));
-        let cost: f32 = (0..3)
-            .map(|c| relative_rms(&nodes, &design, &weights[c], c, |_| true))
-            .sum();
+        let rms: [f32; 3] =
+            std::array::from_fn(|c| relative_rms(&nodes, &design, &weights[c], c, |_| true));
+        let cost: f32 = rms.iter().sum();
         powers_tried.push((power, cost));
-        if best.as_ref().is_none_or(|b| cost < b.cost) {
+        if best
+            .as_ref()
+            .is_none_or(|b| cost < b.relative_rms.iter().sum())
+        {
             best = Some(Candidate {
                 power,
-                cost,
+                relative_rms: rms,
                 design,
                 weights,
             });
@@ -240,9 +243,9 @@ pub fn fit_diffusion(
     }
     let Candidate {
         power,
+        relative_rms: relative_rms_all,
         design,
         weights,
-        ..
     } = best.expect("at least one power was tried");
     let terms = lengths
         .iter()
@@ -254,8 +257,6 @@ pub fn fit_diffusion(
         .collect();
     let profile = DiffusionProfile::new(terms, power)?;
 
-    let relative_rms_all =
-        std::array::from_fn(|c| relative_rms(&nodes, &design, &weights[c], c, |_| true));
     let sphere_quality = spheres
         .iter()
         .enumerate()
@@ -311,12 +312,7 @@ pub fn fit_diffusion_curve_fit(
             samples: fit.node_samples.len(),
         });
     }
-    let spheres: Vec<SphereCurve<'_>> = curvature_per_mm
-        .iter()
-        .enumerate()
-        .map(|(k, &curvature)| SphereCurve::from_fit(fit, k, curvature))
-        .collect();
-    fit_diffusion(&spheres, settings)
+    fit_diffusion(&SphereCurve::all_from_fit(fit, curvature_per_mm), settings)
 }
 
 /// The nodes the fit uses.

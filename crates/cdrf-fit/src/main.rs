@@ -164,14 +164,14 @@ fn run(args: Args) -> anyhow::Result<()> {
         }
         match &fit.diffusion {
             Ok(diffusion) => {
-                let rms = diffusion.relative_rms;
+                let (rms, albedo) = (diffusion.relative_rms, diffusion.profile.albedo());
                 eprintln!(
                     "diffusion profile R(d): {} terms, entry factor mu^{:.2}, albedo [{:.3}, {:.3}, {:.3}]; alone it reproduces the spheres to [{:.1}, {:.1}, {:.1}] % RMS",
                     diffusion.profile.terms().len(),
                     diffusion.profile.entry_cosine_power(),
-                    diffusion.profile.albedo()[0],
-                    diffusion.profile.albedo()[1],
-                    diffusion.profile.albedo()[2],
+                    albedo[0],
+                    albedo[1],
+                    albedo[2],
                     100.0 * rms[0],
                     100.0 * rms[1],
                     100.0 * rms[2],

@@ -765,13 +765,8 @@ fn transmission_plot(fit: &Fit) -> String {
         ),
         Err(error) => {
             let settings = &fit.transmission_settings;
-            let spheres: Vec<SphereCurve<'_>> = fit
-                .samples
-                .iter()
-                .enumerate()
-                .filter(|(k, _)| *k < fit.curves.chosen.curves.len())
-                .map(|(k, s)| SphereCurve::from_fit(&fit.curves.chosen, k, s.curvature_per_mm))
-                .collect();
+            let curvatures: Vec<f32> = fit.samples.iter().map(|s| s.curvature_per_mm).collect();
+            let spheres = SphereCurve::all_from_fit(&fit.curves.chosen, &curvatures);
             (
                 shadow_points(&spheres, settings),
                 format!(

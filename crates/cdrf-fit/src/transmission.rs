@@ -136,6 +136,20 @@ impl<'a> SphereCurve<'a> {
             noise: &fit.node_noise[sphere],
         }
     }
+
+    /// Every sphere of a curve fit, sphere k with curvature `curvature_per_mm[k]` (as many as
+    /// both have).
+    ///
+    /// # Panics
+    /// When `fit` has fewer sample or noise rows than curves.
+    pub fn all_from_fit(fit: &'a CurveFit, curvature_per_mm: &[f32]) -> Vec<Self> {
+        curvature_per_mm
+            .iter()
+            .take(fit.curves.len())
+            .enumerate()
+            .map(|(k, &curvature)| Self::from_fit(fit, k, curvature))
+            .collect()
+    }
 }
 
 impl ChordPoint {
@@ -348,12 +362,7 @@ pub fn fit_curve_fit(
             noise: fit.node_noise.len(),
         });
     }
-    let spheres: Vec<SphereCurve<'_>> = curvature_per_mm
-        .iter()
-        .enumerate()
-        .map(|(k, &curvature)| SphereCurve::from_fit(fit, k, curvature))
-        .collect();
-    fit_transmission(&spheres, settings)
+    fit_transmission(&SphereCurve::all_from_fit(fit, curvature_per_mm), settings)
 }
 
 /// The shadow-side nodes the fit uses, per channel (R, G, B): θ ≥ `settings.min_theta_deg`,

@@ -9,7 +9,7 @@ use std::process::Command;
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
 use cdrf_tests::data_dir;
 use cdrf_viewer::compare::{
-    CaseSpec, FigureLayout, ModelName, Models, Region, read_manifest, run_case,
+    CaseResult, CaseSpec, FigureLayout, ModelName, Models, Region, read_manifest, run_case,
 };
 
 fn case(name: &str) -> CaseSpec {
@@ -20,17 +20,24 @@ fn case(name: &str) -> CaseSpec {
         .unwrap_or_else(|| panic!("data/compare.toml has no case {name}"))
 }
 
-#[test]
-fn measured_beats_gaussian_and_lambert_on_the_sphere() {
+/// Case `name` of data/compare.toml at 128 × 128 pixels with the bundled fit, on the software
+/// adapter; its markdown tables are printed.
+fn run_small_case(name: &str) -> CaseResult {
     let device = HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|e| panic!("{e}"));
     let models =
         Models::from_fit_folder(&data_dir().join("wax-fit")).unwrap_or_else(|e| panic!("{e}"));
-    let result = run_case(&device, &case("sphere_r35"), &models, Some(128), None)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let result =
+        run_case(&device, &case(name), &models, Some(128), None).unwrap_or_else(|e| panic!("{e}"));
     println!(
         "{}",
         cdrf_viewer::compare::markdown(std::slice::from_ref(&result))
     );
+    result
+}
+
+#[test]
+fn measured_beats_gaussian_and_lambert_on_the_sphere() {
+    let result = run_small_case("sphere_r35");
     // A sphere is convex: nothing on it is in a cast shadow.
     let cast = result
         .regions
@@ -89,15 +96,7 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
 /// must beat every local model by far (at 512 px: whole object 73 % → 7.9 %).
 #[test]
 fn shadows_and_transmission_cut_the_torus_error() {
-    let device = HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|e| panic!("{e}"));
-    let models =
-        Models::from_fit_folder(&data_dir().join("wax-fit")).unwrap_or_else(|e| panic!("{e}"));
-    let result = run_case(&device, &case("torus"), &models, Some(128), None)
-        .unwrap_or_else(|e| panic!("{e}"));
-    println!(
-        "{}",
-        cdrf_viewer::compare::markdown(std::slice::from_ref(&result))
-    );
+    let result = run_small_case("torus");
     let rmse = |region, model| result.metrics(region, model).unwrap().relative_rmse;
     let both = ModelName::MeasuredShadowsTransmission;
     for local in [ModelName::Measured, ModelName::Gaussian, ModelName::Lambert] {
@@ -220,15 +219,7 @@ fn compare_command_writes_json_markdown_a_figure_and_the_results_page() {
 /// and leave its lit side alone.
 #[test]
 fn interreflection_lights_the_knot_between_its_strands() {
-    let device = HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|e| panic!("{e}"));
-    let models =
-        Models::from_fit_folder(&data_dir().join("wax-fit")).unwrap_or_else(|e| panic!("{e}"));
-    let result = run_case(&device, &case("knot"), &models, Some(128), None)
-        .unwrap_or_else(|e| panic!("{e}"));
-    println!(
-        "{}",
-        cdrf_viewer::compare::markdown(std::slice::from_ref(&result))
-    );
+    let result = run_small_case("knot");
     let row = |model| {
         result
             .theta
