@@ -224,6 +224,155 @@ impl DiffusionProfile {
     }
 }
 
+/// The part of a [`DiffusionProfile`] that reaches beyond a cut length `ℓ_c`: what a renderer
+/// gathers over a sampled lit surface while the measured table keeps the near field.
+///
+/// Every term longer than the cut keeps its far part, the term minus the same `1/d` shape with
+/// length `ℓ_c`; terms no longer than the cut are dropped (the near field):
+///
+/// ```text
+/// R_far(d) = Σ_{ℓₖ > ℓ_c} wₖ · (exp(−d/ℓₖ) − exp(−d/ℓ_c)) / (2π·ℓₖ·d)
+/// ```
+///
+/// `R_far` is finite at d = 0 (`wₖ·(1/ℓ_c − 1/ℓₖ)/(2πℓₖ)`), rises over about `ℓ_c` and then
+/// falls as the term itself, so a sum over surface samples a fraction of `ℓ_c` apart is smooth;
+/// and it is a difference of terms of the profile's own form, so its integral over a sphere
+/// ([`FarField::sphere_reflectance`]) is exact in the same quadrature. Its weight per channel
+/// (the light it carries on a flat surface) is `Σ wₖ·(1 − ℓ_c/ℓₖ)`.
+///
+/// ```
+/// use cdrf_core::diffusion::{DiffusionProfile, FarField, ProfileTerm};
+///
+/// let profile = DiffusionProfile::new(
+///     vec![
+///         ProfileTerm { length_mm: 1.0, weight: [0.3, 0.4, 0.5] },
+///         ProfileTerm { length_mm: 8.0, weight: [0.6, 0.4, 0.2] },
+///     ],
+///     1.0,
+/// )?;
+/// let far = FarField::new(&profile, 2.0);
+/// // Only the 8 mm term reaches beyond 2 mm, with three quarters of its light.
+/// let flat = far.sphere_reflectance(1e-6, 0.0, &mut Vec::new());
+/// assert!((flat[0] - 0.6 * 0.75).abs() < 1e-3);
+/// # Ok::<(), cdrf_core::diffusion::DiffusionProfileError>(())
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct FarField {
+    cut_mm: f64,
+    /// The kept terms' lengths, then the cut (the lengths `sphere_term_responses` integrates).
+    lengths_mm: Vec<f64>,
+    /// The kept terms' weights.
+    weights: Vec<[f64; 3]>,
+    entry_cosine_power: f64,
+}
+
+impl FarField {
+    /// The far field of `profile` beyond `cut_mm` (mm, > 0; a cut that is not finite and
+    /// positive keeps nothing).
+    pub fn new(profile: &DiffusionProfile, cut_mm: f64) -> Self {
+        let valid = cut_mm.is_finite() && cut_mm > 0.0;
+        let (mut lengths_mm, weights): (Vec<f64>, Vec<[f64; 3]>) = profile
+            .terms()
+            .iter()
+            .filter(|t| valid && f64::from(t.length_mm) > cut_mm)
+            .map(|t| (f64::from(t.length_mm), t.weight.map(f64::from)))
+            .unzip();
+        if !lengths_mm.is_empty() {
+            lengths_mm.push(cut_mm);
+        }
+        Self {
+            cut_mm,
+            lengths_mm,
+            weights,
+            entry_cosine_power: f64::from(profile.entry_cosine_power()),
+        }
+    }
+
+    /// The longest kept term with any weight, mm (0 when empty): R_far falls as exp(−d/ℓ) of
+    /// it far out.
+    pub fn longest_mm(&self) -> f64 {
+        self.lengths_mm
+            .iter()
+            .zip(&self.weights)
+            .filter(|(_, w)| w.iter().any(|w| *w > 0.0))
+            .map(|(l, _)| *l)
+            .fold(0.0, f64::max)
+    }
+
+    /// ℓ_c, mm.
+    pub fn cut_mm(&self) -> f64 {
+        self.cut_mm
+    }
+
+    /// Whether no term reaches beyond the cut (the far field is zero).
+    pub fn is_empty(&self) -> bool {
+        self.weights.is_empty()
+    }
+
+    /// p of the entry factor `h(μ) = max(μ, 0)^p` (the profile's).
+    pub fn entry_cosine_power(&self) -> f64 {
+        self.entry_cosine_power
+    }
+
+    /// `R_far(d)` per channel, mm⁻² (finite at d = 0).
+    pub fn reflectance_per_mm2(&self, distance_mm: f64) -> [f64; 3] {
+        let d = distance_mm.max(0.0);
+        let cut = self.cut_mm;
+        let mut out = [0.0; 3];
+        for (&ell, weight) in self.lengths_mm.iter().zip(&self.weights) {
+            // (exp(−d/ℓ) − exp(−d/ℓ_c)) / d, without cancellation near 0.
+            let shape = if d > 1e-9 * cut {
+                ((-d / ell).exp_m1() - (-d / cut).exp_m1()) / d
+            } else {
+                1.0 / cut - 1.0 / ell
+            };
+            for (o, w) in out.iter_mut().zip(weight) {
+                *o += w * shape / (TAU * ell);
+            }
+        }
+        out
+    }
+
+    /// The far field on a sphere, as [`DiffusionProfile::sphere_reflectance`] for the whole
+    /// profile: π·L/E per channel at curvature κ (mm⁻¹) and light angle θ (radians).
+    /// `scratch` is reused between calls (a table of thousands of entries needs no allocation
+    /// per entry).
+    pub fn sphere_reflectance(
+        &self,
+        curvature_per_mm: f64,
+        theta_rad: f64,
+        scratch: &mut Vec<f64>,
+    ) -> [f64; 3] {
+        if self.is_empty() {
+            return [0.0; 3];
+        }
+        let radius_mm = if curvature_per_mm > 0.0 {
+            curvature_per_mm.recip().min(1e6)
+        } else {
+            1e6
+        };
+        scratch.clear();
+        scratch.resize(self.lengths_mm.len(), 0.0);
+        sphere_term_responses(
+            &self.lengths_mm,
+            radius_mm,
+            theta_rad,
+            self.entry_cosine_power,
+            scratch,
+        );
+        let cut_response = scratch[self.weights.len()];
+        let mut out = [0.0; 3];
+        for ((&ell, weight), &response) in self.lengths_mm.iter().zip(&self.weights).zip(&**scratch)
+        {
+            let far = response - self.cut_mm / ell * cut_response;
+            for (o, w) in out.iter_mut().zip(weight) {
+                *o += w * far;
+            }
+        }
+        out
+    }
+}
+
 /// Each unit-weight term `exp(−d/ℓₖ)/(2π·ℓₖ·d)` of `lengths_mm` integrated over the lit part of
 /// a sphere of radius `radius_mm` at the point θ = `theta_rad` from the light, with the entry
 /// factor `max(μ, 0)^entry_cosine_power` (see the [module docs](self)): `out[k]` is term k's
@@ -342,7 +491,21 @@ mod tests {
     /// A plain midpoint rule over the sphere's surface in (α, β), with R(d)·r²·sin α: an
     /// independent check of the panels, the lit-arc integral and the change of variables.
     fn brute_force(profile: &DiffusionProfile, radius_mm: f64, theta: f64) -> [f64; 3] {
-        let p = f64::from(profile.entry_cosine_power());
+        brute_force_kernel(
+            |d| profile.radial_reflectance_per_mm2(d),
+            f64::from(profile.entry_cosine_power()),
+            radius_mm,
+            theta,
+        )
+    }
+
+    /// [`brute_force`] for any kernel `R(d)` and entry power `p`.
+    fn brute_force_kernel(
+        kernel: impl Fn(f64) -> [f64; 3],
+        p: f64,
+        radius_mm: f64,
+        theta: f64,
+    ) -> [f64; 3] {
         let (n_alpha, n_beta) = (20_000, 720);
         let mut out = [0.0; 3];
         // α on a square-root grid: fine near α = 0, where the short terms live.
@@ -351,7 +514,7 @@ mod tests {
             let (a0, a1) = (PI * u0 * u0, PI * u1 * u1);
             let alpha = 0.5 * (a0 + a1);
             let d = 2.0 * radius_mm * (0.5 * alpha).sin();
-            let r = profile.radial_reflectance_per_mm2(d);
+            let r = kernel(d);
             let area = radius_mm * radius_mm * alpha.sin() * (a1 - a0) * TAU / n_beta as f64;
             let mut h = 0.0;
             for j in 0..n_beta {
@@ -386,6 +549,83 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_far_field_on_a_sphere_agrees_with_a_brute_force_surface_integral() {
+        let profile = profile();
+        let far = FarField::new(&profile, 2.0);
+        let mut scratch = Vec::new();
+        for radius_mm in [10.0, 40.0] {
+            for theta_deg in [0.0f64, 60.0, 95.0, 130.0, 180.0] {
+                let theta = theta_deg.to_radians();
+                let fast = far.sphere_reflectance(1.0 / radius_mm, theta, &mut scratch);
+                let slow = brute_force_kernel(
+                    |d| far.reflectance_per_mm2(d),
+                    far.entry_cosine_power(),
+                    radius_mm,
+                    theta,
+                );
+                let peak = far.sphere_reflectance(1.0 / radius_mm, 0.0, &mut scratch);
+                for c in 0..3 {
+                    let error = (fast[c] - slow[c]).abs() / peak[c];
+                    assert!(
+                        error < 2e-4,
+                        "r = {radius_mm}, θ = {theta_deg}°, channel {c}: {} vs {} (error {error:e})",
+                        fast[c],
+                        slow[c]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_far_field_keeps_the_long_terms_beyond_the_cut() {
+        let profile = profile();
+        let far = FarField::new(&profile, 2.0);
+        // Finite at 0, below the whole profile everywhere, and the 3 and 12 mm terms alone far
+        // out (the 0.5 mm term is dropped).
+        let at_zero = far.reflectance_per_mm2(0.0);
+        let near_zero = far.reflectance_per_mm2(1e-4);
+        for c in 0..3 {
+            assert!(
+                at_zero[c].is_finite() && (at_zero[c] - near_zero[c]).abs() < 1e-4 * at_zero[c]
+            );
+        }
+        for d in [0.1, 1.0, 5.0, 20.0, 60.0] {
+            let whole = profile.radial_reflectance_per_mm2(d);
+            let part = far.reflectance_per_mm2(d);
+            for c in 0..3 {
+                assert!(
+                    part[c] > 0.0 && part[c] < whole[c],
+                    "d = {d}: {part:?} vs {whole:?}"
+                );
+            }
+        }
+        let d = 40.0;
+        let tail = far.reflectance_per_mm2(d)[0];
+        let long: f64 = [(3.0, 0.3), (12.0, 0.4)]
+            .iter()
+            .map(|&(ell, w): &(f64, f64)| w * (-d / ell).exp() / (TAU * ell * d))
+            .sum();
+        assert!((tail - long).abs() < 1e-6 * long, "{tail} vs {long}");
+        // A flat surface lit head-on: Σ w·(1 − ℓ_c/ℓ) of the kept terms.
+        let flat = far.sphere_reflectance(1e-6, 0.0, &mut Vec::new());
+        let expected = 0.3 * (1.0 - 2.0 / 3.0) + 0.4 * (1.0 - 2.0 / 12.0);
+        assert!(
+            (flat[0] - expected).abs() < 1e-4,
+            "{} vs {expected}",
+            flat[0]
+        );
+        assert_eq!(far.longest_mm(), 12.0);
+        // Nothing beyond the longest term, or for a cut that is no length.
+        assert!(FarField::new(&profile, 12.0).is_empty());
+        assert!(FarField::new(&profile, f64::NAN).is_empty());
+        assert_eq!(
+            FarField::new(&profile, 20.0).reflectance_per_mm2(1.0),
+            [0.0; 3]
+        );
     }
 
     #[test]

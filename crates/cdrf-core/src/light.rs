@@ -26,6 +26,12 @@ pub struct NonLocal {
     /// object (or another draw) through the air, as between the strands of a knot. Zero on
     /// convex objects, where no two points of the surface face each other.
     pub interreflection: bool,
+    /// Subsurface gather: light that entered the lit surface near the point — beside it, behind
+    /// it, through an occluder — weighted by the material's diffusion profile
+    /// ([`crate::diffusion`]) beyond what the point's osculating sphere already lets the CDRF
+    /// see. For materials with a profile it replaces `transmission`'s T(d, μ) (the gather holds
+    /// the light through thin parts and occluders too); without one, T(d, μ) stays.
+    pub subsurface: bool,
 }
 
 impl NonLocal {
@@ -34,6 +40,7 @@ impl NonLocal {
         shadows: false,
         transmission: false,
         interreflection: false,
+        subsurface: false,
     };
 
     /// Every term.
@@ -41,10 +48,11 @@ impl NonLocal {
         shadows: true,
         transmission: true,
         interreflection: true,
+        subsurface: true,
     };
 
     /// Whether any term is on.
     pub fn any(self) -> bool {
-        self.shadows || self.transmission || self.interreflection
+        self.shadows || self.transmission || self.interreflection || self.subsurface
     }
 }

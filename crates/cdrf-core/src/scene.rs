@@ -34,9 +34,11 @@
 //! shadows = false               # optional: translucent visibility from shadow maps (default false)
 //! transmission = false          # optional: light through thin parts, T(d, μ) (default false)
 //! interreflection = false       # optional: one bounce of light between parts (default false)
+//! subsurface = false            # optional: light that entered the lit surface nearby, by the
+//!                               # LUT's diffusion profile (default false; replaces T(d, μ))
 //! ```
 //!
-//! `shadows`, `transmission` and `interreflection` are the non-local terms ([`NonLocal`], see
+//! `shadows`, `transmission`, `interreflection` and `subsurface` are the non-local terms ([`NonLocal`], see
 //! [`crate::translucency`]); all off is the poster's local model.
 //!
 //! # Units
@@ -75,7 +77,8 @@ pub struct Scene {
     pub lights: Vec<DirectionalLight>,
     /// The shading model.
     pub shading: ShadingSpec,
-    /// The non-local terms (`[shading] shadows`, `transmission`, `interreflection`).
+    /// The non-local terms (`[shading] shadows`, `transmission`, `interreflection`,
+    /// `subsurface`).
     pub non_local: NonLocal,
 }
 
@@ -399,6 +402,8 @@ struct RawShading {
     transmission: bool,
     #[serde(default)]
     interreflection: bool,
+    #[serde(default)]
+    subsurface: bool,
 }
 
 crate::exact_array_fields!(
@@ -705,6 +710,7 @@ impl Scene {
                 shadows: s.shadows,
                 transmission: s.transmission,
                 interreflection: s.interreflection,
+                subsurface: s.subsurface,
             },
         })
     }
@@ -830,7 +836,18 @@ lut = "out/measured.exr"
             NonLocal {
                 shadows: true,
                 transmission: true,
-                interreflection: false,
+                ..NonLocal::OFF
+            }
+        );
+        let text = EXAMPLE.replace(
+            "lut = \"out/measured.exr\"",
+            "lut = \"out/measured.exr\"\nsubsurface = true",
+        );
+        assert_eq!(
+            parse(&text).unwrap().non_local,
+            NonLocal {
+                subsurface: true,
+                ..NonLocal::OFF
             }
         );
         let text = EXAMPLE.replace(

@@ -73,13 +73,12 @@ fn main() -> Result<(), Box<dyn Error>> {
         let fast = Options::default();
         let shadows = NonLocal {
             shadows: true,
-            transmission: false,
-            interreflection: false,
+            ..NonLocal::OFF
         };
         let both = NonLocal {
             shadows: true,
             transmission: true,
-            interreflection: false,
+            ..NonLocal::OFF
         };
         vec![
             Variant {

@@ -40,6 +40,25 @@
 // E = Σ Φ·cos θ_q·cos θ_p / (π d²) (d clamped to one texel: a texel is not a point), with no
 // visibility test, and reflects it as light along its normal: E/π · f(κ, 0) · g(0, φ). On a
 // convex surface no emitter lies in front of a point, so the term is zero there.
+//
+// Subsurface gather (SUBSURFACE; see cdrf-core's diffusion::FarField). The light that entered
+// the lit surface near a point — beside it, behind it, through an occluder — leaves it by the
+// material's diffusion profile R(d). The table f(κ, θ) already holds what enters the point's
+// osculating sphere, so only the difference is added, and only the profile's far field R_far
+// (the terms longer than a cut ℓ_c, finite at d = 0), which a sampled surface resolves:
+//   f → V·(f − F_sphere(κ, θ)) + G,   G = Σ_q Φ_q · R_far(|p − q|),
+// F_sphere the same far field integrated over the osculating sphere (tabulated per material on
+// the LUT's axes), Φ_q = μ_q^(p−1) · texel area the light entering texel q per unit irradiance
+// (μ^p the entry factor, 1/μ the surface a texel covers). The subsurface map pass
+// (fs_subsurface_map) renders each shadowed light's first surface into level 0 of a pyramid
+// (Φ·position, Φ), fine enough that ℓ_c spans 1.5 texels; each level sums 2 × 2 of the one
+// below. Each vertex reads 9 × 9 texels of every level around its own light-space position,
+// weighted by a partition of unity in distance (level L covers 1–4 of its texels, fading in
+// and out smoothly), and the coarsest level whole: ~470 reads per light whatever the map's
+// size, and a continuous function of the point (no texel switches on or off at a step), so
+// interpolating it between vertices cannot blotch. On a sphere G = F_sphere up to sampling.
+// With a profile, G replaces TRANSMISSION's T(d, μ) (it holds the light through occluders and
+// thin parts); materials without one keep T.
 
 const PI: f32 = 3.14159265358979;
 const FRAC_1_PI: f32 = 0.318309886183791;
@@ -68,6 +87,7 @@ override ENCODE_SRGB: bool = false;
 override SHADOWS: bool = false;
 override TRANSMISSION: bool = false;
 override INTERREFLECTION: bool = false;
+override SUBSURFACE: bool = false;
 // The surfel pass divides the table's f(κ, θ) by cos θ (texel area → surface area), at least
 // this much: a texel at the silhouette covers a long strip of surface its 4 samples only guess.
 const SURFEL_MIN_COSINE: f32 = 0.25;
@@ -115,7 +135,11 @@ struct Material {
     // none); p is the entry cosine power.
     transmission_entry_cosine_power: f32,
     transmission_amplitude: vec3<f32>,
+    // The subsurface gather: the reach of R_far's table (mm; 0: no diffusion profile, no
+    // gather) and the profile's entry cosine power p.
+    subsurface_reach_mm: f32,
     transmission_length_mm: vec3<f32>,
+    subsurface_entry_cosine_power: f32,
     // Tap k lies at radius 2σ_max·√(k / PENUMBRA_TAPS).
     penumbra_taps: array<PenumbraTap, PENUMBRA_TAPS>,
 }
@@ -140,6 +164,10 @@ struct Shadows {
     light_count: u32,
     // Surfel map texels per side (the same square as the shadow map).
     surfel_resolution: u32,
+    // The subsurface pyramid's level 0, texels per side (a power of two), and its levels
+    // (the last one 8 × 8).
+    subsurface_resolution: u32,
+    subsurface_levels: u32,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -147,6 +175,10 @@ struct Shadows {
 @group(1) @binding(1) var lut: texture_2d<f32>;
 @group(1) @binding(2) var view_correction: texture_2d<f32>;
 @group(1) @binding(3) var lut_sampler: sampler;
+// R_far(d) per channel (mm⁻²) at d = reach · (i / (SUBSURFACE_KERNEL_SAMPLES − 1))², one row.
+@group(1) @binding(4) var subsurface_kernel: texture_2d<f32>;
+// F_sphere(κ, θ): R_far over the osculating sphere, on the LUT's axes (π·L/E).
+@group(1) @binding(5) var subsurface_sphere: texture_2d<f32>;
 @group(2) @binding(0) var<uniform> draw: Draw;
 @group(3) @binding(0) var<uniform> shadows: Shadows;
 @group(3) @binding(1) var shadow_maps: texture_depth_2d_array;
@@ -155,6 +187,9 @@ struct Shadows {
 // surface faces the light).
 @group(3) @binding(2) var surfel_exitance: texture_2d_array<f32>;
 @group(3) @binding(3) var surfel_position: texture_2d_array<f32>;
+// The subsurface pyramid: per texel Φ·(light-space position, mm) and Φ (mm², per unit
+// irradiance), summed over the level-0 texels it covers; one layer per shadowed light.
+@group(3) @binding(4) var subsurface_pyramid: texture_2d_array<f32>;
 
 struct VertexIn {
     @location(0) position: vec3<f32>,
@@ -211,31 +246,61 @@ fn vs_main(vertex: VertexIn) -> VertexOut {
             out.curvature_per_mm,
         );
     }
-    if (SHADOWS || TRANSMISSION) && MODEL != MODEL_LAMBERT && MODEL != MODEL_CURVATURE {
+    if (SHADOWS || TRANSMISSION || SUBSURFACE) && MODEL != MODEL_LAMBERT
+        && MODEL != MODEL_CURVATURE {
         let count = min(shadows.light_count, frame.light_count);
         let normal = normalize(out.world_normal);
         if count > 0u {
-            let terms = non_local_terms(0u, out.world_position, normal, out.curvature_per_mm);
+            let terms = vertex_non_local(0u, out.world_position, normal, out.curvature_per_mm);
             out.visibility_0 = terms.visibility;
             out.transmission_0 = terms.transmission;
         }
         if count > 1u {
-            let terms = non_local_terms(1u, out.world_position, normal, out.curvature_per_mm);
+            let terms = vertex_non_local(1u, out.world_position, normal, out.curvature_per_mm);
             out.visibility_1 = terms.visibility;
             out.transmission_1 = terms.transmission;
         }
         if count > 2u {
-            let terms = non_local_terms(2u, out.world_position, normal, out.curvature_per_mm);
+            let terms = vertex_non_local(2u, out.world_position, normal, out.curvature_per_mm);
             out.visibility_2 = terms.visibility;
             out.transmission_2 = terms.transmission;
         }
         if count > 3u {
-            let terms = non_local_terms(3u, out.world_position, normal, out.curvature_per_mm);
+            let terms = vertex_non_local(3u, out.world_position, normal, out.curvature_per_mm);
             out.visibility_3 = terms.visibility;
             out.transmission_3 = terms.transmission;
         }
     }
     return out;
+}
+
+// Whether this material's subsurface gather is on (a diffusion profile, and the pipeline's).
+fn gathers_subsurface() -> bool {
+    return SUBSURFACE && material.subsurface_reach_mm > 0.0 && MODEL != MODEL_LAMBERT;
+}
+
+// The per-vertex terms of shadowed light `index`: visibility and T(d, μ) from the shadow map,
+// and with the subsurface gather G in T's place.
+fn vertex_non_local(
+    index: u32,
+    world_position: vec3<f32>,
+    normal: vec3<f32>,
+    curvature_per_mm: f32,
+) -> NonLocalTerms {
+    var terms: NonLocalTerms;
+    terms.visibility = vec3<f32>(1.0);
+    terms.transmission = vec3<f32>(0.0);
+    if SHADOWS || TRANSMISSION {
+        terms = non_local_terms(index, world_position, normal, curvature_per_mm);
+    }
+    if gathers_subsurface() {
+        let light = shadows.lights[index];
+        let p = (light.light_from_world * vec4<f32>(world_position, 1.0)).xyz
+            * shadows.mm_per_world_unit;
+        let n = (light.light_from_world * vec4<f32>(normal, 0.0)).xyz;
+        terms.transmission = subsurface_gather(index, p, n, curvature_per_mm);
+    }
+    return terms;
 }
 
 // The per-vertex terms of shadowed light `index`, interpolated.
@@ -739,9 +804,16 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                     terms = vertex_terms(in, i);
                 }
                 if SHADOWS {
-                    f *= terms.visibility;
+                    if MODEL != MODEL_LAMBERT && gathers_subsurface() {
+                        // The visibility is the near field's: the far field's shadow is in
+                        // the gather (the sphere's occluded columns come off it).
+                        let far = subsurface_sphere_value(in.curvature_per_mm, theta);
+                        f = (f - far) * terms.visibility + far;
+                    } else {
+                        f *= terms.visibility;
+                    }
                 }
-                f += terms.transmission;
+                f = max(f + terms.transmission, vec3<f32>(0.0));
             }
             if MODEL != MODEL_LAMBERT {
                 f *= view_value(theta, phi);
@@ -835,11 +907,134 @@ fn surfel_irradiance(index: u32, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return sum * (nearest_sq * FRAC_1_PI);
 }
 
+// F_sphere(κ, θ) on the LUT's axes (as lut_value).
+fn subsurface_sphere_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
+    let kappa = material.lut_curvature_per_mm;
+    let size = material.lut_size;
+    var row = 0.0;
+    if size.y > 1.0 && kappa.y > kappa.x {
+        row = clamp((curvature_per_mm - kappa.x) / (kappa.y - kappa.x), 0.0, 1.0) * (size.y - 1.0);
+    }
+    return read_bilinear(subsurface_sphere, node_coordinate(theta, PI, size.x), row, size);
+}
+
+// R_far(d) per channel, mm⁻² (0 beyond the table's reach).
+fn subsurface_kernel_value(distance_mm: f32) -> vec3<f32> {
+    let reach = material.subsurface_reach_mm;
+    if distance_mm >= reach {
+        return vec3<f32>(0.0);
+    }
+    let last = f32(SUBSURFACE_KERNEL_SAMPLES - 1u);
+    let x = sqrt(max(distance_mm, 0.0) / reach) * last;
+    let i = min(u32(x), SUBSURFACE_KERNEL_SAMPLES - 2u);
+    let a = textureLoad(subsurface_kernel, vec2<u32>(i, 0u), 0).rgb;
+    let b = textureLoad(subsurface_kernel, vec2<u32>(i + 1u, 0u), 0).rgb;
+    return mix(a, b, clamp(x - f32(i), 0.0, 1.0));
+}
+
+// The share of the light level L keeps, at ρ of its texels from the point: 1 within
+// SUBSURFACE_LEVEL_REACH texels, 0 beyond twice that, smooth between.
+const SUBSURFACE_LEVEL_REACH: f32 = 3.0;
+fn level_share(rho: f32) -> f32 {
+    return 1.0 - smoothstep(SUBSURFACE_LEVEL_REACH, 2.0 * SUBSURFACE_LEVEL_REACH, rho);
+}
+
+// G at light-space point p (mm) from pyramid `index`, per unit of the light's irradiance (see
+// the header): level L weighs its texel at ρ (its texels) from p by
+// level_share(ρ) − level_share(2ρ) (level 0: level_share(ρ); the coarsest: 1 − level_share(2ρ)),
+// which sum to 1 at every distance.
+fn subsurface_gather(index: u32, p: vec3<f32>, n: vec3<f32>, curvature_per_mm: f32) -> vec3<f32> {
+    let levels = shadows.subsurface_levels;
+    if levels == 0u {
+        return vec3<f32>(0.0);
+    }
+    let half_extent_mm = shadows.lights[index].half_extent * shadows.mm_per_world_unit;
+    let texel_mm = 2.0 * half_extent_mm / f32(shadows.subsurface_resolution);
+    // The sphere the table assumes: the osculating sphere at the table's curvature (clamped
+    // to its axis, as the table is read).
+    let kappa = material.lut_curvature_per_mm;
+    let radius_mm = 1.0 / max(clamp(curvature_per_mm, kappa.x, kappa.y), 1e-4);
+    let sphere_centre = p - n * radius_mm;
+    let power = material.subsurface_entry_cosine_power;
+    // The point in level-0 texel coordinates (as shadow_column).
+    let uv = vec2<f32>(0.5, 0.5) + vec2<f32>(0.5, -0.5) * p.xy / half_extent_mm;
+    var sum = vec3<f32>(0.0);
+    for (var level = 0u; level < levels; level++) {
+        let size = i32(shadows.subsurface_resolution >> level);
+        let centre = uv * f32(size);
+        let coarsest = level + 1u == levels;
+        var first = vec2<i32>(floor(centre - 2.0 * SUBSURFACE_LEVEL_REACH));
+        var count = i32(4.0 * SUBSURFACE_LEVEL_REACH) + 1;
+        if coarsest {
+            first = vec2<i32>(0);
+            count = size;
+        }
+        for (var dy = 0; dy < count; dy++) {
+            for (var dx = 0; dx < count; dx++) {
+                let texel = first + vec2<i32>(dx, dy);
+                if any(texel < vec2<i32>(0)) || any(texel >= vec2<i32>(size)) {
+                    continue;
+                }
+                let rho = length(vec2<f32>(texel) + 0.5 - centre);
+                var share = 1.0;
+                if level > 0u {
+                    share -= level_share(2.0 * rho);
+                }
+                if !coarsest {
+                    share -= 1.0 - level_share(rho);
+                }
+                if share <= 0.0 {
+                    continue;
+                }
+                let texel_sum = textureLoad(subsurface_pyramid, texel, i32(index), i32(level));
+                var here = vec3<f32>(0.0);
+                if texel_sum.w > 0.0 {
+                    let q = texel_sum.xyz / texel_sum.w;
+                    here = texel_sum.w * subsurface_kernel_value(distance(p, q));
+                }
+                // Minus what the osculating sphere puts in the same column (its light-facing
+                // surface there, sampled as the map samples a surface), so on the sphere itself
+                // every column cancels and the table stays exact.
+                // Coarse texels: the sphere at 2 × 2 sub-columns, so its rim (where a texel
+                // is partly covered and its depth changes fastest) is sampled as the finer
+                // level below sampled the surface.
+                let side_mm = texel_mm * f32(1u << level);
+                var sub = 1u;
+                if level > 0u {
+                    sub = 2u;
+                }
+                let sub_mm = side_mm / f32(sub);
+                var sphere_sum = vec4<f32>(0.0);
+                for (var k = 0u; k < sub * sub; k++) {
+                    let offset = (vec2<f32>(f32(k % sub), f32(k / sub)) + 0.5) * sub_mm;
+                    let column = vec2<f32>(texel) * side_mm + offset - half_extent_mm;
+                    let across = vec2<f32>(column.x, -column.y) - sphere_centre.xy;
+                    let depth_sq = radius_mm * radius_mm - dot(across, across);
+                    if depth_sq > 0.0 {
+                        let depth = sqrt(depth_sq);
+                        let surface = vec3<f32>(sphere_centre.xy + across, sphere_centre.z - depth);
+                        let flux = sub_mm * sub_mm * pow(max(depth / radius_mm, 0.1), power - 1.0);
+                        sphere_sum += vec4<f32>(surface * flux, flux);
+                    }
+                }
+                // As the pyramid does: the flux at its mean position.
+                if sphere_sum.w > 0.0 {
+                    let mean = sphere_sum.xyz / sphere_sum.w;
+                    here -= sphere_sum.w * subsurface_kernel_value(distance(p, mean));
+                }
+                sum += share * here;
+            }
+        }
+    }
+    return sum;
+}
+
 struct SurfelOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) light_position_mm: vec3<f32>,
     @location(1) light_normal: vec3<f32>,
     @location(2) curvature_per_mm: f32,
+    @location(3) @interpolate(flat) light: u32,
 }
 
 // The surfel pass: the draws seen from shadowed light `light` (the instance index), in the
@@ -859,6 +1054,7 @@ fn vs_surfel(vertex: VertexIn, @builtin(instance_index) light: u32) -> SurfelOut
     let normal = (draw.normal_from_model * vec4<f32>(vertex.normal, 0.0)).xyz;
     out.light_normal = (camera.light_from_world * vec4<f32>(normal, 0.0)).xyz;
     out.curvature_per_mm = vertex.curvature_per_mm * draw.curvature_scale;
+    out.light = light;
     return out;
 }
 
@@ -877,4 +1073,21 @@ fn fs_surfel(in: SurfelOut) -> SurfelTexel {
     out.exitance = vec4<f32>(f / max(cos_theta, SURFEL_MIN_COSINE), normal.x);
     out.position = vec4<f32>(in.light_position_mm, normal.y);
     return out;
+}
+
+// The subsurface map pass: level 0 of the pyramid, Φ·position and Φ per texel (see the header).
+// Materials without a diffusion profile (and Lambert) occlude but let no light in.
+@fragment
+fn fs_subsurface_map(in: SurfelOut) -> @location(0) vec4<f32> {
+    let normal = normalize(in.light_normal);
+    if !(material.subsurface_reach_mm > 0.0) || MODEL == MODEL_LAMBERT {
+        return vec4<f32>(0.0);
+    }
+    let texel_mm = 2.0 * shadows.lights[in.light].half_extent * shadows.mm_per_world_unit
+        / f32(shadows.subsurface_resolution);
+    // The light shines along +z of light space; μ at least 0.1 (a silhouette texel's surface is
+    // a guess).
+    let mu = max(-normal.z, 0.1);
+    let flux = texel_mm * texel_mm * pow(mu, material.subsurface_entry_cosine_power - 1.0);
+    return vec4<f32>(in.light_position_mm * flux, flux);
 }

@@ -85,9 +85,9 @@ gpu_struct! {
         scattering_length_mm: Vec3,
         transmission_entry_cosine_power: f32,
         transmission_amplitude: Vec3,
-        _pad2: f32,
+        subsurface_reach_mm: f32,
         transmission_length_mm: Vec3,
-        _pad3: f32,
+        subsurface_entry_cosine_power: f32,
         penumbra_taps: [GpuPenumbraTap; PENUMBRA_TAPS],
     }
 }
@@ -121,7 +121,9 @@ gpu_struct! {
         resolution: u32,
         light_count: u32,
         surfel_resolution: u32,
-        _pad0: [u32; 3],
+        subsurface_resolution: u32,
+        subsurface_levels: u32,
+        _pad0: u32,
     }
 }
 

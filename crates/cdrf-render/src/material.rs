@@ -1,5 +1,6 @@
 //! Materials on the GPU: the shading model, its tables as textures and its parameters.
 
+use cdrf_core::diffusion::FarField;
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::glam::Vec3;
 use cdrf_core::{CdrfLut, CurvatureAxis, ViewCorrection};
@@ -8,7 +9,7 @@ use wgpu::util::DeviceExt;
 use crate::error::MaterialError;
 use crate::gpu_data::rgba16f_texels;
 use crate::gpu_types::{GpuMaterial, GpuPenumbraTap, uniform_layout_entry};
-use crate::shaders::{Model, PENUMBRA_TAPS};
+use crate::shaders::{Model, PENUMBRA_TAPS, SUBSURFACE_KERNEL_SAMPLES};
 use crate::target::{GaussianEvaluation, Options};
 
 /// A material uploaded with [`Renderer::create_material`](crate::Renderer::create_material).
@@ -82,6 +83,18 @@ impl MaterialFactory {
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                     count: None,
                 },
+                // The subsurface gather's R_far(d) (f32, read by load) and F_sphere(κ, θ).
+                wgpu::BindGroupLayoutEntry {
+                    binding: 4,
+                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                texture(5),
             ],
         });
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -114,8 +127,19 @@ impl MaterialFactory {
             ..bytemuck::Zeroable::zeroed()
         };
         let tabulated;
+        // R_far(d) and F_sphere(κ, θ) of the subsurface gather (none: zero, no gather).
+        let mut subsurface = None;
         let (model, lut, view) = match *desc {
             MaterialDesc::Measured { lut } => {
+                if let Some(profile) = lut.diffusion_profile() {
+                    let far = FarField::new(profile, f64::from(options.subsurface_cut_mm));
+                    if !far.is_empty() {
+                        let tables = SubsurfaceTables::new(&far, lut);
+                        uniforms.subsurface_reach_mm = tables.reach_mm;
+                        uniforms.subsurface_entry_cosine_power = far.entry_cosine_power() as f32;
+                        subsurface = Some(tables);
+                    }
+                }
                 // Non-local terms: penumbra width and T(d, μ) (none: a hard edge and no
                 // transmission).
                 if let Some(translucency) = lut.translucency() {
@@ -194,6 +218,30 @@ impl MaterialFactory {
             view.values(),
         )?;
         uniforms.view_size = [view.phi_count() as f32, view.theta_count() as f32];
+        let (kernel_texture, sphere_texture) = match &subsurface {
+            Some(tables) => (
+                self.upload_kernel(device, queue, &tables.kernel)?,
+                self.upload_table(
+                    device,
+                    queue,
+                    "cdrf subsurface sphere",
+                    tables.sphere_columns,
+                    tables.sphere_rows,
+                    &tables.sphere,
+                )?,
+            ),
+            None => (
+                self.upload_kernel(device, queue, &[Vec3::ZERO; 2])?,
+                self.upload_table(
+                    device,
+                    queue,
+                    "cdrf subsurface sphere (unused)",
+                    1,
+                    1,
+                    &[Vec3::ZERO],
+                )?,
+            ),
+        };
 
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("cdrf material uniforms"),
@@ -202,6 +250,8 @@ impl MaterialFactory {
         });
         let lut_view = lut_texture.create_view(&Default::default());
         let view_view = view_texture.create_view(&Default::default());
+        let kernel_view = kernel_texture.create_view(&Default::default());
+        let sphere_view = sphere_texture.create_view(&Default::default());
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cdrf material"),
             layout: &self.layout,
@@ -222,9 +272,47 @@ impl MaterialFactory {
                     binding: 3,
                     resource: wgpu::BindingResource::Sampler(&self.sampler),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(&kernel_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: wgpu::BindingResource::TextureView(&sphere_view),
+                },
             ],
         });
         Ok(GpuMaterialEntry { model, bind_group })
+    }
+
+    /// R_far as one row of `Rgba32Float` texels (read with `textureLoad`: the kernel spans
+    /// orders of magnitude, more than `Rgba16Float` holds).
+    fn upload_kernel(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        values: &[Vec3],
+    ) -> Result<wgpu::Texture, MaterialError> {
+        let texels: Vec<f32> = values.iter().flat_map(|v| [v.x, v.y, v.z, 0.0]).collect();
+        Ok(device.create_texture_with_data(
+            queue,
+            &wgpu::TextureDescriptor {
+                label: Some("cdrf subsurface kernel"),
+                size: wgpu::Extent3d {
+                    width: values.len() as u32,
+                    height: 1,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba32Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            bytemuck::cast_slice(&texels),
+        ))
     }
 
     fn upload_table(
@@ -264,6 +352,63 @@ impl MaterialFactory {
             wgpu::util::TextureDataOrder::LayerMajor,
             &rgba16f_texels(values),
         ))
+    }
+}
+
+/// The subsurface gather's tables of one material (see the shader's header).
+struct SubsurfaceTables {
+    /// R_far at d = reach · (i / (samples − 1))², mm⁻².
+    kernel: Vec<Vec3>,
+    reach_mm: f32,
+    /// F_sphere on the LUT's axes: θ columns, κ rows.
+    sphere: Vec<Vec3>,
+    sphere_columns: usize,
+    sphere_rows: usize,
+}
+
+impl SubsurfaceTables {
+    /// Past this many of its longest length R_far is below e⁻¹² of its start.
+    const REACH_LENGTHS: f64 = 12.0;
+
+    fn new(far: &FarField, lut: &CdrfLut) -> Self {
+        let reach_mm = Self::REACH_LENGTHS * far.longest_mm().max(far.cut_mm());
+        let last = (SUBSURFACE_KERNEL_SAMPLES - 1) as f64;
+        let kernel = (0..SUBSURFACE_KERNEL_SAMPLES)
+            .map(|i| {
+                let u = i as f64 / last;
+                let r = far.reflectance_per_mm2(reach_mm * u * u);
+                Vec3::new(r[0] as f32, r[1] as f32, r[2] as f32)
+            })
+            .collect();
+        let axis = lut.curvature_axis();
+        let (columns, rows) = (lut.theta_count(), axis.count);
+        let mut sphere = vec![Vec3::ZERO; columns * rows];
+        // A few milliseconds per row: spread the rows over the cores.
+        let threads = std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(rows.max(1));
+        let rows_per_thread = rows.div_ceil(threads.max(1)).max(1);
+        std::thread::scope(|scope| {
+            for (chunk_index, chunk) in sphere.chunks_mut(rows_per_thread * columns).enumerate() {
+                scope.spawn(move || {
+                    let mut scratch = Vec::new();
+                    for (i, value) in chunk.iter_mut().enumerate() {
+                        let row = chunk_index * rows_per_thread + i / columns;
+                        let theta = f64::from(cdrf_core::lut::theta_rad_at(i % columns, columns));
+                        let kappa = f64::from(axis.curvature_per_mm(row));
+                        let f = far.sphere_reflectance(kappa, theta, &mut scratch);
+                        *value = Vec3::new(f[0] as f32, f[1] as f32, f[2] as f32);
+                    }
+                });
+            }
+        });
+        Self {
+            kernel,
+            reach_mm: reach_mm as f32,
+            sphere,
+            sphere_columns: columns,
+            sphere_rows: rows,
+        }
     }
 }
 

@@ -1,6 +1,7 @@
 //! The non-local terms' GPU side: an orthographic light camera per shadowed light fitted to the
 //! frame's draws, the depth-only shadow pass that renders their maps, the surfel pass that
-//! renders the lit surface the inter-reflection gathers from, and the bind group (group 3)
+//! renders the lit surface the inter-reflection gathers from, the subsurface pyramid (the light
+//! entering the lit surface, for the subsurface gather), and the bind group (group 3)
 //! through which the shading pipelines read them. What the shader does with the maps is
 //! documented at the top of `shaders/cdrf.wgsl`.
 
@@ -13,7 +14,7 @@ use crate::gpu_types::{
     GpuShadowLight, GpuShadowPass, GpuShadows, GpuVertex, uniform_layout_entry, uniform_size,
 };
 use crate::mesh::{GpuMesh, MeshId};
-use crate::shaders::{MAX_SHADOW_LIGHTS, shadow_shader_source};
+use crate::shaders::{MAX_SHADOW_LIGHTS, shadow_shader_source, subsurface_reduce_shader_source};
 use crate::target::Options;
 
 /// The shadow maps' depth format.
@@ -22,6 +23,13 @@ const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub(crate) const SURFEL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// The surfel maps' attachments, in the order of `fs_surfel`'s outputs.
 pub(crate) const SURFEL_TARGETS: usize = 2;
+/// The subsurface pyramid's format: Φ·position (mm³) and Φ (mm²) need f32.
+pub(crate) const SUBSURFACE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// The subsurface pyramid's coarsest level, texels per side (the gather reads it whole).
+const SUBSURFACE_COARSEST: u32 = 8;
+/// Texels of the pyramid's level 0 across the cut ℓ_c (the kernel rises over ℓ_c; a sum over
+/// texels this fine is smooth).
+const SUBSURFACE_TEXELS_PER_CUT: f32 = 1.5;
 
 /// A draw of the frame for the shadow and surfel passes: its mesh, its transform's offset in
 /// the draw buffer, its material and the surfel pipeline of its shading model (`None`: it
@@ -33,10 +41,190 @@ pub(crate) struct ShadowCaster<'a> {
     pub(crate) surfel_pipeline: Option<&'a wgpu::RenderPipeline>,
 }
 
-/// The bind groups the surfel pass sets besides group 3: the frame's (0) and the draws' (2).
+/// The bind groups the surfel pass sets besides group 3: the frame's (0) and the draws' (2),
+/// and the subsurface map pass's pipeline (`None`: no subsurface gather this frame).
 pub(crate) struct SurfelBindings<'a> {
     pub(crate) frame: &'a wgpu::BindGroup,
     pub(crate) draws: &'a wgpu::BindGroup,
+    pub(crate) subsurface_pipeline: Option<&'a wgpu::RenderPipeline>,
+}
+
+/// The subsurface pyramid: per shadowed light, level 0 rendered from the light and each
+/// further level the 2 × 2 sums of the one below, down to [`SUBSURFACE_COARSEST`].
+struct SubsurfacePyramid {
+    resolution: u32,
+    levels: u32,
+    /// All layers and levels, for the shading pipelines.
+    array: wgpu::TextureView,
+    /// Per light, one view per level (render targets and the next level's source).
+    level_views: Vec<Vec<wgpu::TextureView>>,
+    /// Per light, the reduction's bind group of levels 1… (reading the level below).
+    reduce_groups: Vec<Vec<wgpu::BindGroup>>,
+    depth: wgpu::TextureView,
+}
+
+impl SubsurfacePyramid {
+    /// `resolution`: a power of two (1: a blank pyramid with no level the gather reads).
+    fn new(device: &wgpu::Device, reduce_layout: &wgpu::BindGroupLayout, resolution: u32) -> Self {
+        let levels = if resolution >= SUBSURFACE_COARSEST {
+            (resolution / SUBSURFACE_COARSEST).ilog2() + 1
+        } else {
+            0
+        };
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("cdrf subsurface pyramid"),
+            size: wgpu::Extent3d {
+                width: resolution,
+                height: resolution,
+                depth_or_array_layers: MAX_SHADOW_LIGHTS as u32,
+            },
+            mip_level_count: levels.max(1),
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: SUBSURFACE_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let array = texture.create_view(&wgpu::TextureViewDescriptor {
+            label: Some("cdrf subsurface pyramid"),
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let level_views: Vec<Vec<wgpu::TextureView>> = (0..MAX_SHADOW_LIGHTS as u32)
+            .map(|layer| {
+                (0..levels)
+                    .map(|level| {
+                        texture.create_view(&wgpu::TextureViewDescriptor {
+                            label: Some("cdrf subsurface level"),
+                            dimension: Some(wgpu::TextureViewDimension::D2),
+                            base_mip_level: level,
+                            mip_level_count: Some(1),
+                            base_array_layer: layer,
+                            array_layer_count: Some(1),
+                            ..Default::default()
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        let reduce_groups = level_views
+            .iter()
+            .map(|views| {
+                views
+                    .iter()
+                    .take(views.len().saturating_sub(1))
+                    .map(|finer| {
+                        device.create_bind_group(&wgpu::BindGroupDescriptor {
+                            label: Some("cdrf subsurface reduce"),
+                            layout: reduce_layout,
+                            entries: &[wgpu::BindGroupEntry {
+                                binding: 0,
+                                resource: wgpu::BindingResource::TextureView(finer),
+                            }],
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        let depth = device
+            .create_texture(&wgpu::TextureDescriptor {
+                label: Some("cdrf subsurface depth"),
+                size: wgpu::Extent3d {
+                    width: resolution,
+                    height: resolution,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: SHADOW_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            })
+            .create_view(&Default::default());
+        Self {
+            resolution,
+            levels,
+            array,
+            level_views,
+            reduce_groups,
+            depth,
+        }
+    }
+
+    /// Renders level 0 of the first `lights` lights (`vs_surfel` / `fs_subsurface_map`) and
+    /// reduces it level by level.
+    fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        lights: usize,
+        casters: &[ShadowCaster<'_>],
+        bindings: &SurfelBindings<'_>,
+        surfel_pass_bind_group: &wgpu::BindGroup,
+        reduce_pipeline: &wgpu::RenderPipeline,
+    ) {
+        let Some(pipeline) = bindings.subsurface_pipeline else {
+            return;
+        };
+        let color = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    // Zero flux: no surface.
+                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        };
+        for (light, views) in self.level_views.iter().take(lights).enumerate() {
+            let Some(level0) = views.first() else {
+                return;
+            };
+            {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("cdrf subsurface map"),
+                    color_attachments: &[color(level0)],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view: &self.depth,
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(1.0),
+                            store: wgpu::StoreOp::Discard,
+                        }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, bindings.frame, &[]);
+                pass.set_bind_group(3, surfel_pass_bind_group, &[]);
+                let instance = light as u32;
+                for caster in casters {
+                    pass.set_bind_group(1, caster.material, &[]);
+                    pass.set_bind_group(2, bindings.draws, &[caster.draw_offset]);
+                    pass.set_vertex_buffer(0, caster.mesh.vertices.slice(..));
+                    pass.set_index_buffer(caster.mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..caster.mesh.index_count, 0, instance..instance + 1);
+                }
+            }
+            for (coarser, group) in views.iter().skip(1).zip(&self.reduce_groups[light]) {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("cdrf subsurface reduce"),
+                    color_attachments: &[color(coarser)],
+                    depth_stencil_attachment: None,
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_pipeline(reduce_pipeline);
+                pass.set_bind_group(0, group, &[]);
+                pass.draw(0..3, 0..1);
+            }
+        }
+    }
 }
 
 /// The shadow maps, the surfel maps and what the shading pipelines read of them (bind group 3).
@@ -49,6 +237,7 @@ struct ShadowMaps {
     surfel_layers: Vec<[wgpu::TextureView; SURFEL_TARGETS]>,
     /// The surfel pass's depth buffer (shared by the lights).
     surfel_depth: wgpu::TextureView,
+    subsurface: SubsurfacePyramid,
     bind_group: wgpu::BindGroup,
     /// Group 3 for the surfel pass itself: the same uniforms with blank surfel maps (a map
     /// cannot be read and written in one pass).
@@ -69,6 +258,8 @@ pub(crate) struct NonLocalPass {
     pipeline: wgpu::RenderPipeline,
     /// Lights whose shadow map the last `prepare` rendered.
     shadowed_lights: usize,
+    reduce_layout: wgpu::BindGroupLayout,
+    reduce_pipeline: wgpu::RenderPipeline,
 }
 
 impl NonLocalPass {
@@ -103,6 +294,7 @@ impl NonLocalPass {
                 },
                 surfel_entry(2),
                 surfel_entry(3),
+                surfel_entry(4),
             ],
         });
         let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
@@ -111,7 +303,21 @@ impl NonLocalPass {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let no_shadows = ShadowMaps::new(device, &layout, &uniforms, 1, 1);
+        let reduce_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cdrf subsurface reduce layout"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            }],
+        });
+        let reduce_pipeline = create_reduce_pipeline(device, &reduce_layout);
+        let no_shadows = ShadowMaps::new(device, &layout, &reduce_layout, &uniforms, [1, 1, 1]);
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf shadow pass layout"),
             entries: &[uniform_layout_entry::<GpuShadowPass>(
@@ -152,6 +358,8 @@ impl NonLocalPass {
             pass_stride,
             pipeline,
             shadowed_lights: 0,
+            reduce_layout,
+            reduce_pipeline,
         }
     }
 
@@ -185,21 +393,27 @@ impl NonLocalPass {
         let max_side = device.limits().max_texture_dimension_2d;
         let resolution = options.shadow_map_resolution.clamp(1, max_side);
         let surfel_resolution = options.interreflection_resolution.clamp(1, max_side);
-        if self
-            .maps
-            .as_ref()
-            .map(|m| (m.resolution, m.surfel_resolution))
-            != Some((resolution, surfel_resolution))
-        {
+        let (centre, radius) = scene_bounds(frame.draws, meshes);
+        let subsurface_resolution = if bindings.subsurface_pipeline.is_some() {
+            subsurface_resolution(
+                2.0 * LightCamera::half_extent_for(radius) * frame.mm_per_world_unit,
+                options.subsurface_cut_mm,
+                options.subsurface_max_resolution.min(max_side),
+            )
+        } else {
+            1
+        };
+        let sizes = [resolution, surfel_resolution, subsurface_resolution];
+        if self.maps.as_ref().map(ShadowMaps::sizes) != Some(sizes) {
             self.maps = Some(ShadowMaps::new(
                 device,
                 &self.layout,
+                &self.reduce_layout,
                 &self.uniforms,
-                resolution,
-                surfel_resolution,
+                sizes,
             ));
         }
-        let (centre, radius) = scene_bounds(frame.draws, meshes);
+        let maps = self.maps.as_ref().expect("created above");
         let lights = frame.lights.len().min(MAX_SHADOW_LIGHTS);
         let mut shadows = GpuShadows {
             mm_per_world_unit: frame.mm_per_world_unit,
@@ -207,6 +421,8 @@ impl NonLocalPass {
             resolution,
             light_count: lights as u32,
             surfel_resolution,
+            subsurface_resolution,
+            subsurface_levels: maps.subsurface.levels,
             ..bytemuck::Zeroable::zeroed()
         };
         let mut passes = vec![0u8; (self.pass_stride * MAX_SHADOW_LIGHTS as u64) as usize];
@@ -228,7 +444,6 @@ impl NonLocalPass {
         queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&shadows));
         queue.write_buffer(&self.pass_buffer, 0, &passes);
 
-        let maps = self.maps.as_ref().expect("created above");
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("cdrf shadow pass"),
         });
@@ -261,6 +476,14 @@ impl NonLocalPass {
         if frame.non_local.interreflection {
             maps.record_surfel_pass(&mut encoder, lights, casters, &bindings);
         }
+        maps.subsurface.record(
+            &mut encoder,
+            lights,
+            casters,
+            &bindings,
+            &maps.surfel_pass_bind_group,
+            &self.reduce_pipeline,
+        );
         self.shadowed_lights = lights;
         encoder.finish()
     }
@@ -269,13 +492,18 @@ impl NonLocalPass {
 impl ShadowMaps {
     /// The shadow maps (one depth layer per shadowed light, `resolution` texels per side), the
     /// surfel maps (`surfel_resolution`) and the shading pipelines' bind group 3 reading them.
+    /// `sizes`: texels per side of the shadow maps, the surfel maps and the subsurface
+    /// pyramid's level 0.
     fn new(
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
+        reduce_layout: &wgpu::BindGroupLayout,
         uniforms: &wgpu::Buffer,
-        resolution: u32,
-        surfel_resolution: u32,
+        sizes: [u32; 3],
     ) -> Self {
+        let [resolution, surfel_resolution, subsurface_resolution] = sizes;
+        let subsurface = SubsurfacePyramid::new(device, reduce_layout, subsurface_resolution);
+        let blank_pyramid = SubsurfacePyramid::new(device, reduce_layout, 1);
         let (shadow_array, layers) = layered_texture(
             device,
             "cdrf shadow maps",
@@ -298,7 +526,7 @@ impl ShadowMaps {
         let blank: [_; SURFEL_TARGETS] = std::array::from_fn(|_| {
             layered_texture(device, "cdrf blank surfel maps", SURFEL_FORMAT, 1, 1).0
         });
-        let group = |surfels: [&wgpu::TextureView; SURFEL_TARGETS]| {
+        let group = |surfels: [&wgpu::TextureView; SURFEL_TARGETS], pyramid: &wgpu::TextureView| {
             let mut entries = vec![
                 wgpu::BindGroupEntry {
                     binding: 0,
@@ -309,7 +537,7 @@ impl ShadowMaps {
                     resource: wgpu::BindingResource::TextureView(&shadow_array),
                 },
             ];
-            for (binding, view) in (2..).zip(surfels) {
+            for (binding, view) in (2..).zip(surfels.into_iter().chain([pyramid])) {
                 entries.push(wgpu::BindGroupEntry {
                     binding,
                     resource: wgpu::BindingResource::TextureView(view),
@@ -321,8 +549,14 @@ impl ShadowMaps {
                 entries: &entries,
             })
         };
-        let bind_group = group(std::array::from_fn(|target| &surfel_maps[target].0));
-        let surfel_pass_bind_group = group(std::array::from_fn(|target| &blank[target]));
+        let bind_group = group(
+            std::array::from_fn(|target| &surfel_maps[target].0),
+            &subsurface.array,
+        );
+        let surfel_pass_bind_group = group(
+            std::array::from_fn(|target| &blank[target]),
+            &blank_pyramid.array,
+        );
         let surfel_depth = device
             .create_texture(&wgpu::TextureDescriptor {
                 label: Some("cdrf surfel depth"),
@@ -345,9 +579,18 @@ impl ShadowMaps {
             layers,
             surfel_layers,
             surfel_depth,
+            subsurface,
             bind_group,
             surfel_pass_bind_group,
         }
+    }
+
+    fn sizes(&self) -> [u32; 3] {
+        [
+            self.resolution,
+            self.surfel_resolution,
+            self.subsurface.resolution,
+        ]
     }
 
     /// Renders the first surface each of the first `lights` lights meets into its surfel map
@@ -426,8 +669,7 @@ impl LightCamera {
         };
         let x = helper.cross(forward).normalize();
         let y = forward.cross(x);
-        // A margin so the sphere's rim is not on the map's edge or its far plane.
-        let half_extent = radius * 1.02;
+        let half_extent = Self::half_extent_for(radius);
         let rotation = Mat4::from_mat3(Mat3::from_cols(x, y, forward).transpose());
         let light_from_world = Mat4::from_translation(Vec3::new(0.0, 0.0, half_extent))
             * rotation
@@ -436,6 +678,12 @@ impl LightCamera {
             light_from_world,
             half_extent,
         }
+    }
+
+    /// Half the map's side for a bounding sphere of `radius` (world units): a margin so the
+    /// sphere's rim is not on the map's edge or its far plane.
+    fn half_extent_for(radius: f32) -> f32 {
+        radius * 1.02
     }
 
     /// Depth that maps to 1, world units: the bounding sphere's diameter.
@@ -451,6 +699,65 @@ impl LightCamera {
             1.0 / self.depth_range(),
         )) * self.light_from_world
     }
+}
+
+/// The subsurface pyramid's level 0 for a map `side_mm` wide: the power of two that makes the
+/// cut span [`SUBSURFACE_TEXELS_PER_CUT`] texels, from [`SUBSURFACE_COARSEST`] up to the largest
+/// power of two not above `max_resolution`.
+fn subsurface_resolution(side_mm: f32, cut_mm: f32, max_resolution: u32) -> u32 {
+    let cap = if max_resolution >= SUBSURFACE_COARSEST {
+        1 << max_resolution.ilog2()
+    } else {
+        SUBSURFACE_COARSEST
+    };
+    let wanted = side_mm * SUBSURFACE_TEXELS_PER_CUT / cut_mm.max(1e-3);
+    if !(wanted.is_finite() && wanted > 0.0) {
+        return cap;
+    }
+    (wanted.ceil().min(cap as f32) as u32)
+        .next_power_of_two()
+        .clamp(SUBSURFACE_COARSEST, cap)
+}
+
+/// The subsurface pyramid's reduction pipeline (a full-screen triangle per level).
+fn create_reduce_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+) -> wgpu::RenderPipeline {
+    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("cdrf subsurface reduce shader"),
+        source: wgpu::ShaderSource::Wgsl(subsurface_reduce_shader_source().into()),
+    });
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("cdrf subsurface reduce layout"),
+        bind_group_layouts: &[Some(layout)],
+        immediate_size: 0,
+    });
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("cdrf subsurface reduce"),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module: &shader,
+            entry_point: Some("vs_fullscreen"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: Default::default(),
+        depth_stencil: None,
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &shader,
+            entry_point: Some("fs_reduce"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: SUBSURFACE_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }
 
 /// A sphere around every draw's mesh in world space (radius > 0).

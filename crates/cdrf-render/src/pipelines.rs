@@ -8,7 +8,7 @@ use cdrf_core::light::NonLocal;
 use crate::error::PrepareError;
 use crate::gpu_data::block_on;
 use crate::gpu_types::GpuVertex;
-use crate::non_local::{SURFEL_FORMAT, SURFEL_TARGETS};
+use crate::non_local::{SUBSURFACE_FORMAT, SURFEL_FORMAT, SURFEL_TARGETS};
 use crate::shaders::{Model, shading_shader_source};
 use crate::target::{LutFiltering, Options, TargetDesc};
 
@@ -21,6 +21,7 @@ pub(crate) struct Pipelines {
     layout: wgpu::PipelineLayout,
     cache: HashMap<PipelineKey, wgpu::RenderPipeline>,
     surfel_cache: HashMap<Model, wgpu::RenderPipeline>,
+    subsurface_map: Option<wgpu::RenderPipeline>,
 }
 
 impl Pipelines {
@@ -43,6 +44,7 @@ impl Pipelines {
             layout,
             cache: HashMap::new(),
             surfel_cache: HashMap::new(),
+            subsurface_map: None,
         }
     }
 
@@ -82,6 +84,7 @@ impl Pipelines {
             ("SHADOWS", flag(non_local.shadows)),
             ("TRANSMISSION", flag(non_local.transmission)),
             ("INTERREFLECTION", flag(non_local.interreflection)),
+            ("SUBSURFACE", flag(non_local.subsurface)),
         ];
         let compilation_options = wgpu::PipelineCompilationOptions {
             constants: &constants,
@@ -137,6 +140,71 @@ impl Pipelines {
             });
         }
         self.cache.insert(key, pipeline);
+        Ok(())
+    }
+
+    /// The subsurface map pass's pipeline, if built.
+    pub(crate) fn subsurface_map(&self) -> Option<&wgpu::RenderPipeline> {
+        self.subsurface_map.as_ref()
+    }
+
+    /// Builds the subsurface map pass's pipeline unless built: `vs_surfel` /
+    /// `fs_subsurface_map` into the pyramid's level 0, no culling (one pipeline for every
+    /// model: what a material lets in is in its uniforms).
+    pub(crate) fn ensure_subsurface_map(
+        &mut self,
+        device: &wgpu::Device,
+    ) -> Result<(), PrepareError> {
+        if self.subsurface_map.is_some() {
+            return Ok(());
+        }
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("cdrf subsurface map pipeline"),
+            layout: Some(&self.layout),
+            vertex: wgpu::VertexState {
+                module: &self.shader,
+                entry_point: Some("vs_surfel"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: GpuVertex::STRIDE,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &GpuVertex::ATTRIBUTES,
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: wgpu::TextureFormat::Depth32Float,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &self.shader,
+                entry_point: Some("fs_subsurface_map"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: SUBSURFACE_FORMAT,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        if let Some(error) = block_on(scope.pop()) {
+            return Err(PrepareError::Pipeline {
+                target: TargetDesc::new(SUBSURFACE_FORMAT),
+                message: error.to_string(),
+            });
+        }
+        self.subsurface_map = Some(pipeline);
         Ok(())
     }
 

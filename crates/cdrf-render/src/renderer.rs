@@ -259,7 +259,7 @@ impl Renderer {
     ///     exposure: 1.0,
     ///     draws: &[Draw { mesh, material, world_from_model: Mat4::IDENTITY }],
     ///     // Cast shadows and transmission: prepare returns the shadow pass.
-    ///     non_local: NonLocal { shadows: true, transmission: true, interreflection: false },
+    ///     non_local: NonLocal { shadows: true, transmission: true, ..NonLocal::OFF },
     ///     mm_per_world_unit: 1.0,
     /// };
     /// let shadow_pass = renderer.prepare(device, queue, &frame)?;
@@ -313,6 +313,9 @@ impl Renderer {
             if non_local.interreflection {
                 self.pipelines.ensure_surfel(device, &self.options, model)?;
             }
+            if non_local.subsurface {
+                self.pipelines.ensure_subsurface_map(device)?;
+            }
             prepared.push(PreparedDraw {
                 model,
                 non_local,
@@ -351,18 +354,25 @@ impl Renderer {
                     })
                 })
                 .collect();
-            commands.push(self.non_local.prepare(
-                device,
-                queue,
-                &self.options,
-                frame,
-                &self.meshes,
-                &casters,
-                SurfelBindings {
-                    frame: &self.frame_bind_group,
-                    draws: &self.draw_bind_group,
-                },
-            ));
+            commands.push(
+                self.non_local.prepare(
+                    device,
+                    queue,
+                    &self.options,
+                    frame,
+                    &self.meshes,
+                    &casters,
+                    SurfelBindings {
+                        frame: &self.frame_bind_group,
+                        draws: &self.draw_bind_group,
+                        subsurface_pipeline: prepared
+                            .iter()
+                            .any(|draw| draw.non_local.subsurface)
+                            .then(|| self.pipelines.subsurface_map())
+                            .flatten(),
+                    },
+                ),
+            );
         }
         self.prepared = prepared;
         Ok(commands)

@@ -16,10 +16,14 @@ pub const MAX_SHADOW_LIGHTS: usize = 4;
 /// probes: 1.55 × the local model's pixel-scale roughness on the knot; 32 fixed taps, all
 /// read: 1.12 ×; `tests/tests/non_local.rs`).
 pub(crate) const PENUMBRA_TAPS: usize = 32;
+/// Samples of the subsurface gather's far-field kernel R_far(d), on a square-root grid in d
+/// (fine where R_far changes fastest).
+pub(crate) const SUBSURFACE_KERNEL_SAMPLES: usize = 128;
 
 const COMMON: &str = include_str!("../shaders/common.wgsl");
 const SHADING: &str = include_str!("../shaders/cdrf.wgsl");
 const SHADOW: &str = include_str!("../shaders/shadow.wgsl");
+const SUBSURFACE_REDUCE: &str = include_str!("../shaders/subsurface_reduce.wgsl");
 
 /// The shading models of the pipelines (the shader's `MODEL` override and `MODEL_*` constants).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -48,6 +52,7 @@ pub fn wgsl_constants() -> String {
         ("MAX_LIGHTS", MAX_LIGHTS),
         ("MAX_SHADOW_LIGHTS", MAX_SHADOW_LIGHTS),
         ("PENUMBRA_TAPS", PENUMBRA_TAPS),
+        ("SUBSURFACE_KERNEL_SAMPLES", SUBSURFACE_KERNEL_SAMPLES),
     ] {
         wgsl.push_str(&format!("const {name}: u32 = {value}u;\n"));
     }
@@ -65,6 +70,11 @@ pub fn shading_shader_source() -> String {
 /// The WGSL of the shadow pass (`shaders/shadow.wgsl`), composed.
 pub fn shadow_shader_source() -> String {
     compose(SHADOW)
+}
+
+/// The WGSL of the subsurface pyramid's reduction (`shaders/subsurface_reduce.wgsl`), composed.
+pub fn subsurface_reduce_shader_source() -> String {
+    compose(SUBSURFACE_REDUCE)
 }
 
 fn compose(shader: &str) -> String {

@@ -108,6 +108,19 @@ pub struct Options {
     ///
     /// [`NonLocal::interreflection`]: crate::NonLocal::interreflection
     pub interreflection_resolution: u32,
+    /// The subsurface gather's cut ℓ_c, mm: the diffusion profile's terms longer than this
+    /// reach beyond the point's osculating sphere and are gathered (their far part); shorter
+    /// ones stay in the measured table alone (see [`FarField`]). The gather's map is made fine
+    /// enough for ℓ_c to span 1.5 texels, up to [`Options::subsurface_max_resolution`]; a
+    /// material takes the cut it is created with.
+    ///
+    /// [`FarField`]: cdrf_core::diffusion::FarField
+    pub subsurface_cut_mm: f32,
+    /// Most texels per side of the subsurface gather's finest map (a power of two is used).
+    /// Objects wider than about `subsurface_max_resolution · ℓ_c / 1.5` are sampled more
+    /// coarsely than the cut (smooth, but less exact). Memory: 16 bytes × 4/3 per texel and
+    /// shadowed light.
+    pub subsurface_max_resolution: u32,
 }
 
 impl Options {
@@ -124,6 +137,8 @@ impl Options {
         shadow_map_resolution: 512,
         shadow_bias_mm: 0.5,
         interreflection_resolution: 16,
+        subsurface_cut_mm: 1.0,
+        subsurface_max_resolution: 512,
     };
 }
 

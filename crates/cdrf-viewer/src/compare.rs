@@ -222,7 +222,10 @@ pub enum ModelName {
     MeasuredTransmission,
     /// The measured LUT with both non-local terms.
     MeasuredShadowsTransmission,
-    /// The measured LUT with both non-local terms and one inter-reflection.
+    /// The measured LUT with cast shadows and the subsurface gather (in place of T(d, μ)).
+    MeasuredShadowsSubsurface,
+    /// The measured LUT with every non-local term: shadows, the subsurface gather and one
+    /// inter-reflection.
     MeasuredAll,
     /// Kubo's Gaussian CDRF.
     Gaussian,
@@ -234,11 +237,12 @@ pub enum ModelName {
 
 impl ModelName {
     /// All of them, in table order.
-    pub const ALL: [ModelName; 8] = [
+    pub const ALL: [ModelName; 9] = [
         ModelName::Measured,
         ModelName::MeasuredShadows,
         ModelName::MeasuredTransmission,
         ModelName::MeasuredShadowsTransmission,
+        ModelName::MeasuredShadowsSubsurface,
         ModelName::MeasuredAll,
         ModelName::Gaussian,
         ModelName::GaussianShadows,
@@ -251,12 +255,18 @@ impl ModelName {
             ModelName::Measured | ModelName::Gaussian | ModelName::Lambert => (false, false),
             ModelName::MeasuredShadows | ModelName::GaussianShadows => (true, false),
             ModelName::MeasuredTransmission => (false, true),
-            ModelName::MeasuredShadowsTransmission | ModelName::MeasuredAll => (true, true),
+            ModelName::MeasuredShadowsTransmission
+            | ModelName::MeasuredShadowsSubsurface
+            | ModelName::MeasuredAll => (true, true),
         };
         NonLocal {
             shadows,
             transmission,
             interreflection: self == ModelName::MeasuredAll,
+            subsurface: matches!(
+                self,
+                ModelName::MeasuredShadowsSubsurface | ModelName::MeasuredAll
+            ),
         }
     }
 
@@ -267,7 +277,8 @@ impl ModelName {
             ModelName::MeasuredShadows => "measured + shadows",
             ModelName::MeasuredTransmission => "measured + transmission",
             ModelName::MeasuredShadowsTransmission => "measured + shadows + transmission",
-            ModelName::MeasuredAll => "measured + shadows + transmission + inter-reflection",
+            ModelName::MeasuredShadowsSubsurface => "measured + shadows + subsurface",
+            ModelName::MeasuredAll => "measured + shadows + subsurface + inter-reflection",
             ModelName::Gaussian => "Gaussian",
             ModelName::GaussianShadows => "Gaussian + shadows",
             ModelName::Lambert => "Lambert",
@@ -481,6 +492,7 @@ pub fn run_case(
             | ModelName::MeasuredShadows
             | ModelName::MeasuredTransmission
             | ModelName::MeasuredShadowsTransmission
+            | ModelName::MeasuredShadowsSubsurface
             | ModelName::MeasuredAll => measured,
             ModelName::Gaussian | ModelName::GaussianShadows => gaussian,
             ModelName::Lambert => lambert,
