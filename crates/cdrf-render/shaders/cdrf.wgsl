@@ -52,9 +52,9 @@
 // (μ^p the entry factor, 1/μ the surface a texel covers). The subsurface map pass
 // (fs_subsurface_map) renders each shadowed light's first surface into level 0 of a pyramid
 // (Φ·position, Φ), fine enough that ℓ_c spans 1.5 texels; each level sums 2 × 2 of the one
-// below. Each vertex reads 9 × 9 texels of every level around its own light-space position,
-// weighted by a partition of unity in distance (level L covers 1–4 of its texels, fading in
-// and out smoothly), and the coarsest level whole: ~470 reads per light whatever the map's
+// below. Each vertex reads 13 × 13 texels of every level around its own light-space position,
+// weighted by a partition of unity in distance (level L covers 1.5–6 of its texels, fading
+// in and out smoothly), and the coarsest level whole: ~900 reads per light whatever the map's
 // size, and a continuous function of the point (no texel switches on or off at a step), so
 // interpolating it between vertices cannot blotch. On a sphere G = F_sphere up to sampling.
 // With a profile, G replaces TRANSMISSION's T(d, μ) (it holds the light through occluders and
@@ -297,8 +297,7 @@ fn vertex_non_local(
         let light = shadows.lights[index];
         let p = (light.light_from_world * vec4<f32>(world_position, 1.0)).xyz
             * shadows.mm_per_world_unit;
-        let n = (light.light_from_world * vec4<f32>(normal, 0.0)).xyz;
-        terms.transmission = subsurface_gather(index, p, n, curvature_per_mm);
+        terms.transmission = subsurface_gather(index, p);
     }
     return terms;
 }
@@ -803,15 +802,13 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                 } else {
                     terms = vertex_terms(in, i);
                 }
+                if MODEL != MODEL_LAMBERT && gathers_subsurface() {
+                    // The far field the table holds through the osculating sphere: the gather
+                    // brings it from the surface that is there.
+                    f -= subsurface_sphere_value(in.curvature_per_mm, theta);
+                }
                 if SHADOWS {
-                    if MODEL != MODEL_LAMBERT && gathers_subsurface() {
-                        // The visibility is the near field's: the far field's shadow is in
-                        // the gather (the sphere's occluded columns come off it).
-                        let far = subsurface_sphere_value(in.curvature_per_mm, theta);
-                        f = (f - far) * terms.visibility + far;
-                    } else {
-                        f *= terms.visibility;
-                    }
+                    f *= terms.visibility;
                 }
                 f = max(f + terms.transmission, vec3<f32>(0.0));
             }
@@ -943,19 +940,12 @@ fn level_share(rho: f32) -> f32 {
 // the header): level L weighs its texel at ρ (its texels) from p by
 // level_share(ρ) − level_share(2ρ) (level 0: level_share(ρ); the coarsest: 1 − level_share(2ρ)),
 // which sum to 1 at every distance.
-fn subsurface_gather(index: u32, p: vec3<f32>, n: vec3<f32>, curvature_per_mm: f32) -> vec3<f32> {
+fn subsurface_gather(index: u32, p: vec3<f32>) -> vec3<f32> {
     let levels = shadows.subsurface_levels;
     if levels == 0u {
         return vec3<f32>(0.0);
     }
     let half_extent_mm = shadows.lights[index].half_extent * shadows.mm_per_world_unit;
-    let texel_mm = 2.0 * half_extent_mm / f32(shadows.subsurface_resolution);
-    // The sphere the table assumes: the osculating sphere at the table's curvature (clamped
-    // to its axis, as the table is read).
-    let kappa = material.lut_curvature_per_mm;
-    let radius_mm = 1.0 / max(clamp(curvature_per_mm, kappa.x, kappa.y), 1e-4);
-    let sphere_centre = p - n * radius_mm;
-    let power = material.subsurface_entry_cosine_power;
     // The point in level-0 texel coordinates (as shadow_column).
     let uv = vec2<f32>(0.5, 0.5) + vec2<f32>(0.5, -0.5) * p.xy / half_extent_mm;
     var sum = vec3<f32>(0.0);
@@ -987,42 +977,12 @@ fn subsurface_gather(index: u32, p: vec3<f32>, n: vec3<f32>, curvature_per_mm: f
                     continue;
                 }
                 let texel_sum = textureLoad(subsurface_pyramid, texel, i32(index), i32(level));
-                var here = vec3<f32>(0.0);
-                if texel_sum.w > 0.0 {
-                    let q = texel_sum.xyz / texel_sum.w;
-                    here = texel_sum.w * subsurface_kernel_value(distance(p, q));
+                if texel_sum.w <= 0.0 {
+                    continue;
                 }
-                // Minus what the osculating sphere puts in the same column (its light-facing
-                // surface there, sampled as the map samples a surface), so on the sphere itself
-                // every column cancels and the table stays exact.
-                // Coarse texels: the sphere at 2 × 2 sub-columns, so its rim (where a texel
-                // is partly covered and its depth changes fastest) is sampled as the finer
-                // level below sampled the surface.
-                let side_mm = texel_mm * f32(1u << level);
-                var sub = 1u;
-                if level > 0u {
-                    sub = 2u;
-                }
-                let sub_mm = side_mm / f32(sub);
-                var sphere_sum = vec4<f32>(0.0);
-                for (var k = 0u; k < sub * sub; k++) {
-                    let offset = (vec2<f32>(f32(k % sub), f32(k / sub)) + 0.5) * sub_mm;
-                    let column = vec2<f32>(texel) * side_mm + offset - half_extent_mm;
-                    let across = vec2<f32>(column.x, -column.y) - sphere_centre.xy;
-                    let depth_sq = radius_mm * radius_mm - dot(across, across);
-                    if depth_sq > 0.0 {
-                        let depth = sqrt(depth_sq);
-                        let surface = vec3<f32>(sphere_centre.xy + across, sphere_centre.z - depth);
-                        let flux = sub_mm * sub_mm * pow(max(depth / radius_mm, 0.1), power - 1.0);
-                        sphere_sum += vec4<f32>(surface * flux, flux);
-                    }
-                }
-                // As the pyramid does: the flux at its mean position.
-                if sphere_sum.w > 0.0 {
-                    let mean = sphere_sum.xyz / sphere_sum.w;
-                    here -= sphere_sum.w * subsurface_kernel_value(distance(p, mean));
-                }
-                sum += share * here;
+                // The texel's flux at its mean position.
+                let q = texel_sum.xyz / texel_sum.w;
+                sum += share * texel_sum.w * subsurface_kernel_value(distance(p, q));
             }
         }
     }
