@@ -949,8 +949,7 @@ fn prepare_rejects_unusable_input() {
                 &FrameDesc {
                     non_local: NonLocal {
                         shadows: true,
-                        transmission: false,
-                        interreflection: false,
+                        ..NonLocal::OFF
                     },
                     mm_per_world_unit,
                     ..frame(view, 1.0, &ok)
@@ -969,7 +968,7 @@ fn prepare_rejects_unusable_input() {
                 non_local: NonLocal {
                     shadows: true,
                     transmission: true,
-                    interreflection: false,
+                    ..NonLocal::OFF
                 },
                 ..frame(view, 1.0, &ok)
             },

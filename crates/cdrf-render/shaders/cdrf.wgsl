@@ -790,7 +790,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
             let cos_theta = dot(normal, light.to_light);
             let theta = angle(cos_theta);
             var f = local_value(in.curvature_per_mm, cos_theta, theta);
-            if (SHADOWS || TRANSMISSION) && i < shadows.light_count {
+            if (SHADOWS || TRANSMISSION || SUBSURFACE) && i < shadows.light_count {
                 var terms: NonLocalTerms;
                 if MODEL == MODEL_LAMBERT {
                     terms = non_local_terms(

@@ -69,7 +69,10 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
     assert!(lit.relative_rmse < 0.02, "{lit:?}");
 
     // An isolated sphere is its own osculating sphere and convex: cast shadows, transmission and
-    // the inter-reflection change nothing (to 0.1 % of the error).
+    // the inter-reflection change nothing (to 0.1 % of the error); the subsurface gather finds
+    // what the table holds up to its sampling of the lit surface (to 2 points: at 128 px the
+    // whole object's 0.2 % becomes 0.4 %, the terminator band's 0.6 % 1.4 %, the shadow side's
+    // 3.1 % 4.6 %; at 512 px whole 0.8 → 0.9 %, terminator 1.6 → 2.6 %).
     for region in [
         Region::Whole,
         Region::Lit,
@@ -81,11 +84,21 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
             ModelName::MeasuredShadows,
             ModelName::MeasuredTransmission,
             ModelName::MeasuredShadowsTransmission,
+            ModelName::MeasuredShadowsSubsurface,
             ModelName::MeasuredAll,
         ] {
             let other = result.metrics(region, model).unwrap();
+            let bound = if model.non_local().subsurface {
+                2e-2
+            } else {
+                1e-3
+            };
+            println!(
+                "sphere, {region}: {model} {:.4} vs the poster's {:.4}",
+                other.relative_rmse, poster.relative_rmse
+            );
             assert!(
-                (other.relative_rmse - poster.relative_rmse).abs() < 1e-3,
+                (other.relative_rmse - poster.relative_rmse).abs() < bound,
                 "{region}: {model} {other:?} vs the poster's {poster:?}"
             );
         }
@@ -214,9 +227,9 @@ fn compare_command_writes_json_markdown_a_figure_and_the_results_page() {
     assert!(!dir.path().join("out2").exists());
 }
 
-/// The knot's strands face each other: one inter-reflection must light its shadow side (at 512 px:
-/// render / reference past θ = 100° from 0.12–0.19 to 0.36–0.54, whole object 25.2 % → 21.1 %)
-/// and leave its lit side alone.
+/// The knot's strands face each other: one inter-reflection must light its shadow side (at
+/// 512 px, on top of shadows and the subsurface gather: render / reference past θ = 100° from
+/// 0.33–0.43 to 0.59–0.69, whole object 19.8 % → 16.0 %) and leave its lit side alone.
 #[test]
 fn interreflection_lights_the_knot_between_its_strands() {
     let result = run_small_case("knot");
@@ -230,7 +243,7 @@ fn interreflection_lights_the_knot_between_its_strands() {
             .clone()
     };
     let (before, after) = (
-        row(ModelName::MeasuredShadowsTransmission),
+        row(ModelName::MeasuredShadowsSubsurface),
         row(ModelName::MeasuredAll),
     );
     // Bins 0–50° and 50–70°: as before, within 5 %.
@@ -242,10 +255,10 @@ fn interreflection_lights_the_knot_between_its_strands() {
             before.bins[bin]
         );
     }
-    // Bins 100–110°, 110–130°, 130–180°: at least half as bright again, and past 0.3 of the truth.
+    // Bins 100–110°, 110–130°, 130–180°: a tenth of the truth more, and past half of it.
     for bin in 5..8 {
         assert!(
-            after.bins[bin] > 1.5 * before.bins[bin] && after.bins[bin] > 0.3,
+            after.bins[bin] > before.bins[bin] + 0.1 && after.bins[bin] > 0.5,
             "shadow-side bin {bin}: {} (before {})",
             after.bins[bin],
             before.bins[bin]
@@ -253,9 +266,57 @@ fn interreflection_lights_the_knot_between_its_strands() {
     }
     let rmse = |model| result.metrics(Region::Whole, model).unwrap().relative_rmse;
     assert!(
-        rmse(ModelName::MeasuredAll) < 0.92 * rmse(ModelName::MeasuredShadowsTransmission),
+        rmse(ModelName::MeasuredAll) < 0.92 * rmse(ModelName::MeasuredShadowsSubsurface),
         "whole object: {} vs {}",
         rmse(ModelName::MeasuredAll),
+        rmse(ModelName::MeasuredShadowsSubsurface)
+    );
+}
+
+/// The light that entered the knot beside, behind and above each shadow-side point: the
+/// subsurface gather in place of T(d, μ) (at 512 px: render / reference past θ = 100° from
+/// 0.12–0.19 to 0.33–0.43, whole object 25.2 % → 19.8 %, the cast shadow 0.79 → 0.74), the lit
+/// side within a few per cent.
+#[test]
+fn the_subsurface_gather_lights_the_knot_shadow_side() {
+    let result = run_small_case("knot");
+    let row = |model| {
+        result
+            .theta
+            .models
+            .iter()
+            .find(|row| row.model == model)
+            .unwrap()
+            .clone()
+    };
+    let (before, after) = (
+        row(ModelName::MeasuredShadowsTransmission),
+        row(ModelName::MeasuredShadowsSubsurface),
+    );
+    println!("bins before {:?}\nbins after {:?}", before.bins, after.bins);
+    for bin in 0..2 {
+        assert!(
+            (after.bins[bin] / before.bins[bin] - 1.0).abs() < 0.05,
+            "lit bin {bin}: {} vs {}",
+            after.bins[bin],
+            before.bins[bin]
+        );
+    }
+    // Bins 90–100° … 130–180°: at least 1.5 × as bright, and past a quarter of the truth.
+    for bin in 4..8 {
+        assert!(
+            after.bins[bin] > 1.5 * before.bins[bin] && after.bins[bin] > 0.25,
+            "shadow-side bin {bin}: {} (before {})",
+            after.bins[bin],
+            before.bins[bin]
+        );
+    }
+    let rmse = |model| result.metrics(Region::Whole, model).unwrap().relative_rmse;
+    assert!(
+        rmse(ModelName::MeasuredShadowsSubsurface)
+            < 0.9 * rmse(ModelName::MeasuredShadowsTransmission),
+        "whole object: {} vs {}",
+        rmse(ModelName::MeasuredShadowsSubsurface),
         rmse(ModelName::MeasuredShadowsTransmission)
     );
 }
