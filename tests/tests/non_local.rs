@@ -474,7 +474,8 @@ fn the_subsurface_gather_matches_the_profile_through_a_slab() {
     let (lut, _) = wax();
     let options = cdrf_render::Options::PREDICTABLE;
     let far = FarField::new(
-        lut.diffusion_profile().expect("the bundled fit has a profile"),
+        lut.diffusion_profile()
+            .expect("the bundled fit has a profile"),
         f64::from(options.subsurface_cut_mm),
     );
     let g = f64::from(lut.view_correction().sample(PI, 0.0).x);

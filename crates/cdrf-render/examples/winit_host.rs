@@ -17,7 +17,8 @@
 //! Keys: `1` measured CDRF, `2` Gaussian CDRF, `3` Lambert, `4` curvature (blue concave, red
 //! convex); `←`/`→` move the light around the vertical axis, `↑`/`↓` raise and lower it (either
 //! stops the rotation), `Space` starts or stops the rotation, `M` toggles 4× MSAA, `S` cast
-//! shadows, `T` transmission and `I` inter-reflection (the non-local terms), `Esc` quits.
+//! shadows, `T` transmission, `I` inter-reflection and `U` the subsurface gather (the non-local
+//! terms), `Esc` quits.
 //! The title shows the model, the shading, the sample count and the time per frame.
 //!
 //! `CDRF_EXIT_AFTER_FRAMES=N` exits cleanly (status 0) after N frames were presented — for
@@ -803,6 +804,9 @@ impl App {
             KeyCode::KeyI if !event.repeat => {
                 self.non_local.interreflection = !self.non_local.interreflection;
             }
+            KeyCode::KeyU if !event.repeat => {
+                self.non_local.subsurface = !self.non_local.subsurface;
+            }
             KeyCode::Escape => event_loop.exit(),
             _ => {}
         }
@@ -854,7 +858,7 @@ impl App {
         if elapsed >= TITLE_INTERVAL && self.title_frames > 0 {
             let ms_per_frame = elapsed.as_secs_f64() * 1e3 / f64::from(self.title_frames);
             gpu.window.set_title(&format!(
-                "cdrf winit_host — {} — {}{}{}{} — {}× MSAA — {ms_per_frame:.1} ms/frame",
+                "cdrf winit_host — {} — {}{}{}{}{} — {}× MSAA — {ms_per_frame:.1} ms/frame",
                 self.scene.name,
                 self.shading.name(),
                 if self.non_local.shadows {
@@ -869,6 +873,11 @@ impl App {
                 },
                 if self.non_local.interreflection {
                     " + inter-reflection"
+                } else {
+                    ""
+                },
+                if self.non_local.subsurface {
+                    " + subsurface"
                 } else {
                     ""
                 },

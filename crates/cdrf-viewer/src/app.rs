@@ -579,6 +579,8 @@ impl ViewerApp {
             .on_hover_text("Light through thin parts (and, with cast shadows, through occluders) by the transmission profile T(d, μ) measured with the table");
         ui.checkbox(&mut self.settings.non_local.interreflection, "inter-reflection")
             .on_hover_text("One bounce of light between parts of the object that face each other (as a knot's strands), from the lit surface the light sees");
+        ui.checkbox(&mut self.settings.non_local.subsurface, "subsurface gather")
+            .on_hover_text("Light that entered the lit surface near each point (beside it, behind it, through an occluder), by the table's diffusion profile; replaces transmission's T(d, μ)");
         ui.separator();
 
         ui.heading("Light");
