@@ -136,6 +136,16 @@ fn main() -> Result<(), Box<dyn Error>> {
                 non_local: both,
             },
             Variant {
+                name: "measured + shadows + subsurface",
+                material: Material::Measured(lut.clone()),
+                options: fast,
+                non_local: NonLocal {
+                    shadows: true,
+                    subsurface: true,
+                    ..NonLocal::OFF
+                },
+            },
+            Variant {
                 name: "measured + all (inter-refl. 16²)",
                 material: Material::Measured(lut.clone()),
                 options: fast,
