@@ -58,6 +58,10 @@ fn every_shader_parses_and_validates() {
             "shaders/shadow.wgsl",
             cdrf_render::shaders::shadow_shader_source(),
         ),
+        (
+            "shaders/subsurface_reduce.wgsl",
+            cdrf_render::shaders::subsurface_reduce_shader_source(),
+        ),
     ];
     let mut failures = Vec::new();
     for (name, source) in &shaders {
@@ -88,7 +92,12 @@ fn every_shader_parses_and_validates() {
 fn the_shader_folder_holds_exactly_the_composed_files() {
     assert_eq!(
         wgsl_files(Path::new(SHADER_DIR)),
-        ["cdrf.wgsl", "common.wgsl", "shadow.wgsl"],
+        [
+            "cdrf.wgsl",
+            "common.wgsl",
+            "shadow.wgsl",
+            "subsurface_reduce.wgsl"
+        ],
         "a WGSL file was added to or removed from {SHADER_DIR}: compose it in src/shaders.rs \
          and validate it here"
     );
