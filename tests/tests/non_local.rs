@@ -372,6 +372,38 @@ fn non_local_terms_do_not_pattern_the_surface() {
     }
 }
 
+/// On a coarse mesh (edges ≫ the scattering length) the per-vertex terms are interpolated
+/// across large triangles: they must stay as smooth as the local model there too. A wax torus
+/// (r = 30 / 14 mm) of 24 × 12 segments, 7–8 mm edges, tilted so its hole shows and its inner
+/// wall is shadowed by the ring, every non-local term on.
+#[test]
+fn non_local_terms_do_not_pattern_a_coarse_mesh() {
+    let (lut, _) = wax();
+    let mut torus = Mesh::torus(30.0, 14.0, 24, 12);
+    let tilt = cdrf_core::glam::Quat::from_rotation_x(1.0);
+    for p in &mut torus.positions {
+        *p = tilt * *p;
+    }
+    for n in &mut torus.normals {
+        *n = tilt * *n;
+    }
+    let (mesh, curvature_per_mm) = merged(&[(torus, Vec3::ZERO)]);
+    let assets = SceneAssets {
+        mesh,
+        curvature_per_mm,
+        material: Material::Measured(lut),
+    };
+    let light = Vec3::new(-1.0, 0.6, 0.3);
+    let local = render_predictable(&scene(48.0, light, NonLocal::OFF), &assets);
+    let all = render_predictable(&scene(48.0, light, NonLocal::ALL), &assets);
+    let (local, all) = (roughness(&local), roughness(&all));
+    let ratio = all / local;
+    println!(
+        "coarse torus: pixel-scale roughness {local:.4} local, {all:.4} with every term ({ratio:.2} x)"
+    );
+    assert!(ratio < 1.1, "{ratio:.2} x the local model's roughness");
+}
+
 /// One inter-reflection against the form-factor integral it approximates: a lit Lambertian
 /// floor (60 × 60 mm, lit straight from above) and a wall standing on its edge, parallel to
 /// the light (no direct light). The wall's radiance is ρ/π · E, E = ρ/π ∫ cos θ_w cos θ_f / d² dA
