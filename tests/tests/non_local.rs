@@ -8,7 +8,7 @@
 use std::f32::consts::PI;
 use std::path::PathBuf;
 
-use cdrf_core::glam::Vec3;
+use cdrf_core::glam::{Quat, Vec3};
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::light::{DirectionalLight, NonLocal};
 use cdrf_core::lut::Filter;
@@ -380,7 +380,7 @@ fn non_local_terms_do_not_pattern_the_surface() {
 fn non_local_terms_do_not_pattern_a_coarse_mesh() {
     let (lut, _) = wax();
     let mut torus = Mesh::torus(30.0, 14.0, 24, 12);
-    let tilt = cdrf_core::glam::Quat::from_rotation_x(1.0);
+    let tilt = Quat::from_rotation_x(1.0);
     for p in &mut torus.positions {
         *p = tilt * *p;
     }

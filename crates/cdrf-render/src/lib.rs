@@ -83,7 +83,7 @@
 //! Bind groups 0 (frame: camera, lights), 1 (material: LUT, view correction, parameters),
 //! 2 (draw: transform, dynamic offset) and 3 (shadow maps) are set inside [`Renderer::render`].
 //!
-//! # Beyond the poster: cast shadows, transmission, inter-reflection
+//! # Beyond the poster: cast shadows, transmission, inter-reflection, subsurface gather
 //! [`FrameDesc::non_local`] turns on translucent visibility (cast shadows with a penumbra as wide
 //! as the material's scattering length) and transmission T(d, μ) (see
 //! [`cdrf_core::translucency`]). Then `prepare` also records a depth-only shadow pass — an
@@ -99,6 +99,13 @@
 //! [`NonLocal::interreflection`] adds one bounce of light between parts of the draws that face
 //! each other: the same command buffer then also holds a surfel pass (each shadowed light's lit
 //! surface in a small map, [`Options::interreflection_resolution`]), which every vertex gathers.
+//!
+//! [`NonLocal::subsurface`] adds the light that entered the lit surface near each point by the
+//! table's diffusion profile (LUT format version 4; [`cdrf_core::diffusion::FarField`]): the
+//! command buffer then also renders each shadowed light's lit surface into a pyramid
+//! ([`Options::subsurface_cut_mm`], [`Options::subsurface_max_resolution`]) that every vertex
+//! gathers, and the shading subtracts what the table already holds through the osculating
+//! sphere. For a material with a profile it replaces T(d, μ).
 
 mod error;
 mod frame;
