@@ -7,7 +7,7 @@
 use bytemuck::{Pod, Zeroable};
 use cdrf_core::glam::{Mat4, Vec3};
 
-use crate::shaders::{MAX_LIGHTS, MAX_SHADOW_LIGHTS, PENUMBRA_TAPS};
+use crate::shaders::{MAX_LIGHTS, MAX_SHADOW_LIGHTS, PENUMBRA_TAPS, SUBSURFACE_KERNEL_SAMPLES};
 
 /// Name, size and named field offsets of a struct, for the layout test.
 #[cfg_attr(not(test), allow(dead_code))]
@@ -89,6 +89,7 @@ gpu_struct! {
         transmission_length_mm: Vec3,
         subsurface_entry_cosine_power: f32,
         penumbra_taps: [GpuPenumbraTap; PENUMBRA_TAPS],
+        subsurface_kernel: [[f32; 4]; SUBSURFACE_KERNEL_SAMPLES],
     }
 }
 

@@ -83,18 +83,8 @@ impl MaterialFactory {
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                     count: None,
                 },
-                // The subsurface gather's R_far(d) (f32, read by load) and F_sphere(κ, θ).
-                wgpu::BindGroupLayoutEntry {
-                    binding: 4,
-                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                texture(5),
+                // The subsurface gather's F_sphere(κ, θ).
+                texture(4),
             ],
         });
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -137,6 +127,11 @@ impl MaterialFactory {
                         let tables = SubsurfaceTables::new(&far, lut);
                         uniforms.subsurface_reach_mm = tables.reach_mm;
                         uniforms.subsurface_entry_cosine_power = far.entry_cosine_power() as f32;
+                        for (texel, value) in
+                            uniforms.subsurface_kernel.iter_mut().zip(&tables.kernel)
+                        {
+                            *texel = [value.x, value.y, value.z, 0.0];
+                        }
                         subsurface = Some(tables);
                     }
                 }
@@ -218,29 +213,23 @@ impl MaterialFactory {
             view.values(),
         )?;
         uniforms.view_size = [view.phi_count() as f32, view.theta_count() as f32];
-        let (kernel_texture, sphere_texture) = match &subsurface {
-            Some(tables) => (
-                self.upload_kernel(device, queue, &tables.kernel)?,
-                self.upload_table(
-                    device,
-                    queue,
-                    "cdrf subsurface sphere",
-                    tables.sphere_columns,
-                    tables.sphere_rows,
-                    &tables.sphere,
-                )?,
-            ),
-            None => (
-                self.upload_kernel(device, queue, &[Vec3::ZERO; 2])?,
-                self.upload_table(
-                    device,
-                    queue,
-                    "cdrf subsurface sphere (unused)",
-                    1,
-                    1,
-                    &[Vec3::ZERO],
-                )?,
-            ),
+        let sphere_texture = match &subsurface {
+            Some(tables) => self.upload_table(
+                device,
+                queue,
+                "cdrf subsurface sphere",
+                tables.sphere_columns,
+                tables.sphere_rows,
+                &tables.sphere,
+            )?,
+            None => self.upload_table(
+                device,
+                queue,
+                "cdrf subsurface sphere (unused)",
+                1,
+                1,
+                &[Vec3::ZERO],
+            )?,
         };
 
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -250,7 +239,6 @@ impl MaterialFactory {
         });
         let lut_view = lut_texture.create_view(&Default::default());
         let view_view = view_texture.create_view(&Default::default());
-        let kernel_view = kernel_texture.create_view(&Default::default());
         let sphere_view = sphere_texture.create_view(&Default::default());
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cdrf material"),
@@ -274,45 +262,11 @@ impl MaterialFactory {
                 },
                 wgpu::BindGroupEntry {
                     binding: 4,
-                    resource: wgpu::BindingResource::TextureView(&kernel_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
                     resource: wgpu::BindingResource::TextureView(&sphere_view),
                 },
             ],
         });
         Ok(GpuMaterialEntry { model, bind_group })
-    }
-
-    /// R_far as one row of `Rgba32Float` texels (read with `textureLoad`: the kernel spans
-    /// orders of magnitude, more than `Rgba16Float` holds).
-    fn upload_kernel(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        values: &[Vec3],
-    ) -> Result<wgpu::Texture, MaterialError> {
-        let texels: Vec<f32> = values.iter().flat_map(|v| [v.x, v.y, v.z, 0.0]).collect();
-        Ok(device.create_texture_with_data(
-            queue,
-            &wgpu::TextureDescriptor {
-                label: Some("cdrf subsurface kernel"),
-                size: wgpu::Extent3d {
-                    width: values.len() as u32,
-                    height: 1,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba32Float,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            },
-            wgpu::util::TextureDataOrder::LayerMajor,
-            bytemuck::cast_slice(&texels),
-        ))
     }
 
     fn upload_table(
