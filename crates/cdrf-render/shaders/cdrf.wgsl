@@ -355,14 +355,19 @@ fn read_bilinear(texture: texture_2d<f32>, column: f32, row: f32, size: vec2<f32
 // f(κ, θ) from the LUT: θ across (columns over [0, π]), κ down (rows over the curvature axis,
 // clamped to its ends).
 fn lut_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
+    let at = lut_coordinates(curvature_per_mm, theta);
+    return read_bilinear(lut, at.x, at.y, material.lut_size);
+}
+
+// Node coordinates (column, row) of (κ, θ) on the LUT's axes, as lut_value reads them.
+fn lut_coordinates(curvature_per_mm: f32, theta: f32) -> vec2<f32> {
     let kappa = material.lut_curvature_per_mm;
     let size = material.lut_size;
     var row = 0.0;
     if size.y > 1.0 && kappa.y > kappa.x {
         row = clamp((curvature_per_mm - kappa.x) / (kappa.y - kappa.x), 0.0, 1.0) * (size.y - 1.0);
     }
-    let column = node_coordinate(theta, PI, size.x);
-    return read_bilinear(lut, column, row, size);
+    return vec2<f32>(node_coordinate(theta, PI, size.x), row);
 }
 
 // g(θ, φ): φ across (columns over [0, π/2]), θ down (rows over [0, π]).
@@ -804,7 +809,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                 } else {
                     terms = vertex_terms(in, i);
                 }
-                if MODEL != MODEL_LAMBERT && gathers_subsurface() {
+                if gathers_subsurface() {
                     // The far field the table holds through the osculating sphere: the gather
                     // brings it from the surface that is there.
                     f -= subsurface_sphere_value(in.curvature_per_mm, theta);
@@ -908,13 +913,8 @@ fn surfel_irradiance(index: u32, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
 
 // F_sphere(κ, θ) on the LUT's axes (as lut_value).
 fn subsurface_sphere_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
-    let kappa = material.lut_curvature_per_mm;
-    let size = material.lut_size;
-    var row = 0.0;
-    if size.y > 1.0 && kappa.y > kappa.x {
-        row = clamp((curvature_per_mm - kappa.x) / (kappa.y - kappa.x), 0.0, 1.0) * (size.y - 1.0);
-    }
-    return read_bilinear(subsurface_sphere, node_coordinate(theta, PI, size.x), row, size);
+    let at = lut_coordinates(curvature_per_mm, theta);
+    return read_bilinear(subsurface_sphere, at.x, at.y, material.lut_size);
 }
 
 // R_far(d) per channel, mm⁻² (0 beyond the table's reach).
@@ -1038,11 +1038,12 @@ fn fs_surfel(in: SurfelOut) -> SurfelTexel {
 }
 
 // The subsurface map pass: level 0 of the pyramid, Φ·position and Φ per texel (see the header).
-// Materials without a diffusion profile (and Lambert) occlude but let no light in.
+// Materials without a diffusion profile (Lambert, the Gaussian CDRF) occlude but let no light in
+// (one pipeline for every model: MODEL is not set here).
 @fragment
 fn fs_subsurface_map(in: SurfelOut) -> @location(0) vec4<f32> {
     let normal = normalize(in.light_normal);
-    if !(material.subsurface_reach_mm > 0.0) || MODEL == MODEL_LAMBERT {
+    if !(material.subsurface_reach_mm > 0.0) {
         return vec4<f32>(0.0);
     }
     let texel_mm = 2.0 * shadows.lights[in.light].half_extent * shadows.mm_per_world_unit

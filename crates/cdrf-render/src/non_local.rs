@@ -126,22 +126,7 @@ impl SubsurfacePyramid {
                     .collect()
             })
             .collect();
-        let depth = device
-            .create_texture(&wgpu::TextureDescriptor {
-                label: Some("cdrf subsurface depth"),
-                size: wgpu::Extent3d {
-                    width: resolution,
-                    height: resolution,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: SHADOW_FORMAT,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                view_formats: &[],
-            })
-            .create_view(&Default::default());
+        let depth = depth_target(device, "cdrf subsurface depth", resolution);
         Self {
             resolution,
             levels,
@@ -166,54 +151,26 @@ impl SubsurfacePyramid {
         let Some(pipeline) = bindings.subsurface_pipeline else {
             return;
         };
-        let color = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    // Zero flux: no surface.
-                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                    store: wgpu::StoreOp::Store,
-                },
-            })
-        };
         for (light, views) in self.level_views.iter().take(lights).enumerate() {
             let Some(level0) = views.first() else {
                 return;
             };
-            {
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("cdrf subsurface map"),
-                    color_attachments: &[color(level0)],
-                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view: &self.depth,
-                        depth_ops: Some(wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(1.0),
-                            store: wgpu::StoreOp::Discard,
-                        }),
-                        stencil_ops: None,
-                    }),
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, bindings.frame, &[]);
-                pass.set_bind_group(3, surfel_pass_bind_group, &[]);
-                let instance = light as u32;
-                for caster in casters {
-                    pass.set_bind_group(1, caster.material, &[]);
-                    pass.set_bind_group(2, bindings.draws, &[caster.draw_offset]);
-                    pass.set_vertex_buffer(0, caster.mesh.vertices.slice(..));
-                    pass.set_index_buffer(caster.mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                    pass.draw_indexed(0..caster.mesh.index_count, 0, instance..instance + 1);
-                }
-            }
+            // Zero flux: no surface.
+            record_light_view(
+                encoder,
+                "cdrf subsurface map",
+                &[level0],
+                &self.depth,
+                light,
+                casters,
+                bindings,
+                surfel_pass_bind_group,
+                |_| Some(pipeline),
+            );
             for (coarser, group) in views.iter().skip(1).zip(&self.reduce_groups[light]) {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("cdrf subsurface reduce"),
-                    color_attachments: &[color(coarser)],
+                    color_attachments: &[cleared_target(coarser)],
                     depth_stencil_attachment: None,
                     timestamp_writes: None,
                     occlusion_query_set: None,
@@ -557,22 +514,7 @@ impl ShadowMaps {
             std::array::from_fn(|target| &blank[target]),
             &blank_pyramid.array,
         );
-        let surfel_depth = device
-            .create_texture(&wgpu::TextureDescriptor {
-                label: Some("cdrf surfel depth"),
-                size: wgpu::Extent3d {
-                    width: surfel_resolution,
-                    height: surfel_resolution,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: SHADOW_FORMAT,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                view_formats: &[],
-            })
-            .create_view(&Default::default());
+        let surfel_depth = depth_target(device, "cdrf surfel depth", surfel_resolution);
         Self {
             resolution,
             surfel_resolution,
@@ -603,52 +545,100 @@ impl ShadowMaps {
         bindings: &SurfelBindings<'_>,
     ) {
         for (light, views) in self.surfel_layers.iter().take(lights).enumerate() {
-            let attachments: Vec<Option<wgpu::RenderPassColorAttachment<'_>>> = views
-                .iter()
-                .map(|view| {
-                    Some(wgpu::RenderPassColorAttachment {
-                        view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            // Zero exitance: no surface.
-                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })
-                })
-                .collect();
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("cdrf surfel map"),
-                color_attachments: &attachments,
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.surfel_depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_bind_group(0, bindings.frame, &[]);
-            pass.set_bind_group(3, &self.surfel_pass_bind_group, &[]);
-            let instance = light as u32;
-            for caster in casters {
-                let Some(pipeline) = caster.surfel_pipeline else {
-                    continue;
-                };
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(1, caster.material, &[]);
-                pass.set_bind_group(2, bindings.draws, &[caster.draw_offset]);
-                pass.set_vertex_buffer(0, caster.mesh.vertices.slice(..));
-                pass.set_index_buffer(caster.mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..caster.mesh.index_count, 0, instance..instance + 1);
-            }
+            // Zero exitance: no surface.
+            record_light_view(
+                encoder,
+                "cdrf surfel map",
+                &views.each_ref(),
+                &self.surfel_depth,
+                light,
+                casters,
+                bindings,
+                &self.surfel_pass_bind_group,
+                |caster| caster.surfel_pipeline,
+            );
         }
     }
+}
+
+/// Renders the casters as shadowed light `light` sees them (`vs_surfel`, the light is the
+/// instance index) into `targets`, cleared to zero (no surface), with `depth` cleared as the
+/// depth buffer; `pipeline` gives each caster's pipeline (`None`: it is left out).
+#[allow(clippy::too_many_arguments)]
+fn record_light_view<'a>(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &'static str,
+    targets: &[&wgpu::TextureView],
+    depth: &wgpu::TextureView,
+    light: usize,
+    casters: &[ShadowCaster<'a>],
+    bindings: &SurfelBindings<'_>,
+    pass_bind_group: &wgpu::BindGroup,
+    pipeline: impl Fn(&ShadowCaster<'a>) -> Option<&'a wgpu::RenderPipeline>,
+) {
+    let attachments: Vec<_> = targets.iter().map(|view| cleared_target(view)).collect();
+    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &attachments,
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: depth,
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Clear(1.0),
+                store: wgpu::StoreOp::Discard,
+            }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_bind_group(0, bindings.frame, &[]);
+    pass.set_bind_group(3, pass_bind_group, &[]);
+    let instance = light as u32;
+    for caster in casters {
+        let Some(pipeline) = pipeline(caster) else {
+            continue;
+        };
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(1, caster.material, &[]);
+        pass.set_bind_group(2, bindings.draws, &[caster.draw_offset]);
+        pass.set_vertex_buffer(0, caster.mesh.vertices.slice(..));
+        pass.set_index_buffer(caster.mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..caster.mesh.index_count, 0, instance..instance + 1);
+    }
+}
+
+/// A colour attachment cleared to zero and stored.
+fn cleared_target(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+    Some(wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+            store: wgpu::StoreOp::Store,
+        },
+    })
+}
+
+/// A square depth buffer of the light-view passes (not sampled).
+fn depth_target(device: &wgpu::Device, label: &'static str, side: u32) -> wgpu::TextureView {
+    device
+        .create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width: side,
+                height: side,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: SHADOW_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        })
+        .create_view(&Default::default())
 }
 
 /// An orthographic camera looking along a directional light, fitted to a bounding sphere.

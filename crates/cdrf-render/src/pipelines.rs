@@ -148,63 +148,24 @@ impl Pipelines {
         self.subsurface_map.as_ref()
     }
 
-    /// Builds the subsurface map pass's pipeline unless built: `vs_surfel` /
-    /// `fs_subsurface_map` into the pyramid's level 0, no culling (one pipeline for every
-    /// model: what a material lets in is in its uniforms).
+    /// Builds the subsurface map pass's pipeline unless built: `fs_subsurface_map` into the
+    /// pyramid's level 0 (one pipeline for every model: what a material lets in is in its
+    /// uniforms).
     pub(crate) fn ensure_subsurface_map(
         &mut self,
         device: &wgpu::Device,
     ) -> Result<(), PrepareError> {
-        if self.subsurface_map.is_some() {
-            return Ok(());
+        if self.subsurface_map.is_none() {
+            let target = Some(color_target(SUBSURFACE_FORMAT));
+            let pipeline = self.light_view_pipeline(
+                device,
+                "cdrf subsurface map pipeline",
+                "fs_subsurface_map",
+                &[],
+                &[target],
+            )?;
+            self.subsurface_map = Some(pipeline);
         }
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("cdrf subsurface map pipeline"),
-            layout: Some(&self.layout),
-            vertex: wgpu::VertexState {
-                module: &self.shader,
-                entry_point: Some("vs_surfel"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: GpuVertex::STRIDE,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &GpuVertex::ATTRIBUTES,
-                })],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: wgpu::TextureFormat::Depth32Float,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &self.shader,
-                entry_point: Some("fs_subsurface_map"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: SUBSURFACE_FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
-        if let Some(error) = block_on(scope.pop()) {
-            return Err(PrepareError::Pipeline {
-                target: TargetDesc::new(SUBSURFACE_FORMAT),
-                message: error.to_string(),
-            });
-        }
-        self.subsurface_map = Some(pipeline);
         Ok(())
     }
 
@@ -213,9 +174,8 @@ impl Pipelines {
         self.surfel_cache.get(&model)
     }
 
-    /// Builds the surfel pass's pipeline of a shading model unless cached: `vs_surfel` /
-    /// `fs_surfel` of the shading shader, into the surfel maps, no culling (the first surface
-    /// whatever its winding, as the shadow pass).
+    /// Builds the surfel pass's pipeline of a shading model unless cached: `fs_surfel` into the
+    /// surfel maps.
     pub(crate) fn ensure_surfel(
         &mut self,
         device: &wgpu::Device,
@@ -225,7 +185,6 @@ impl Pipelines {
         if self.surfel_cache.contains_key(&model) {
             return Ok(());
         }
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let constants = [
             ("MODEL", model as u32 as f64),
             (
@@ -233,19 +192,38 @@ impl Pipelines {
                 flag(options.lut_filtering == LutFiltering::Manual),
             ),
         ];
+        let targets: [_; SURFEL_TARGETS] =
+            std::array::from_fn(|_| Some(color_target(SURFEL_FORMAT)));
+        let pipeline = self.light_view_pipeline(
+            device,
+            "cdrf surfel pipeline",
+            "fs_surfel",
+            &constants,
+            &targets,
+        )?;
+        self.surfel_cache.insert(model, pipeline);
+        Ok(())
+    }
+
+    /// A pipeline of the passes that render the draws as the light sees them (`vs_surfel`, the
+    /// light is the instance index) into maps: no culling (the first surface whatever its
+    /// winding, as the shadow pass), its own depth test, `fragment` into `targets`. wgpu's
+    /// validation error, if any, is returned.
+    fn light_view_pipeline(
+        &self,
+        device: &wgpu::Device,
+        label: &'static str,
+        fragment: &'static str,
+        constants: &[(&str, f64)],
+        targets: &[Option<wgpu::ColorTargetState>],
+    ) -> Result<wgpu::RenderPipeline, PrepareError> {
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let compilation_options = wgpu::PipelineCompilationOptions {
-            constants: &constants,
+            constants,
             ..Default::default()
         };
-        let targets: [_; SURFEL_TARGETS] = std::array::from_fn(|_| {
-            Some(wgpu::ColorTargetState {
-                format: SURFEL_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })
-        });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("cdrf surfel pipeline"),
+            label: Some(label),
             layout: Some(&self.layout),
             vertex: wgpu::VertexState {
                 module: &self.shader,
@@ -272,21 +250,34 @@ impl Pipelines {
             multisample: Default::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &self.shader,
-                entry_point: Some("fs_surfel"),
+                entry_point: Some(fragment),
                 compilation_options,
-                targets: &targets,
+                targets,
             }),
             multiview_mask: None,
             cache: None,
         });
         if let Some(error) = block_on(scope.pop()) {
+            let format = targets
+                .iter()
+                .flatten()
+                .next()
+                .map_or(SURFEL_FORMAT, |t| t.format);
             return Err(PrepareError::Pipeline {
-                target: TargetDesc::new(SURFEL_FORMAT),
+                target: TargetDesc::new(format),
                 message: error.to_string(),
             });
         }
-        self.surfel_cache.insert(model, pipeline);
-        Ok(())
+        Ok(pipeline)
+    }
+}
+
+/// A colour target written whole, without blending.
+fn color_target(format: wgpu::TextureFormat) -> wgpu::ColorTargetState {
+    wgpu::ColorTargetState {
+        format,
+        blend: None,
+        write_mask: wgpu::ColorWrites::ALL,
     }
 }
 

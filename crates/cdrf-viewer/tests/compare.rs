@@ -233,15 +233,7 @@ fn compare_command_writes_json_markdown_a_figure_and_the_results_page() {
 #[test]
 fn interreflection_lights_the_knot_between_its_strands() {
     let result = run_small_case("knot");
-    let row = |model| {
-        result
-            .theta
-            .models
-            .iter()
-            .find(|row| row.model == model)
-            .unwrap()
-            .clone()
-    };
+    let row = |model| result.theta.ratios(model).unwrap();
     let (before, after) = (
         row(ModelName::MeasuredShadowsSubsurface),
         row(ModelName::MeasuredAll),
@@ -280,15 +272,7 @@ fn interreflection_lights_the_knot_between_its_strands() {
 #[test]
 fn the_subsurface_gather_lights_the_knot_shadow_side() {
     let result = run_small_case("knot");
-    let row = |model| {
-        result
-            .theta
-            .models
-            .iter()
-            .find(|row| row.model == model)
-            .unwrap()
-            .clone()
-    };
+    let row = |model| result.theta.ratios(model).unwrap();
     let (before, after) = (
         row(ModelName::MeasuredShadowsTransmission),
         row(ModelName::MeasuredShadowsSubsurface),

@@ -31,6 +31,13 @@ pub struct ThetaTable {
     pub models: Vec<ThetaRatios>,
 }
 
+impl ThetaTable {
+    /// The row of `model`.
+    pub fn ratios(&self, model: ModelName) -> Option<&ThetaRatios> {
+        self.models.iter().find(|row| row.model == model)
+    }
+}
+
 /// One model's row.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ThetaRatios {
