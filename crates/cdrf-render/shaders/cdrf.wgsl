@@ -46,9 +46,11 @@
 // material's diffusion profile R(d). The table f(κ, θ) already holds what enters the point's
 // osculating sphere, so only the difference is added, and only the profile's far field R_far
 // (the terms longer than a cut ℓ_c, finite at d = 0), which a sampled surface resolves:
-//   f → V·(f − F_sphere(κ, θ)) + G,   G = Σ_q Φ_q · R_far(|p − q|),
+//   f → V·(f − F_sphere(κ, θ)) + (V + (1 − V)·s(κ, θ))·G,   G = Σ_q Φ_q · R_far(|p − q|),
 // F_sphere the same far field integrated over the osculating sphere (tabulated per material on
-// the LUT's axes), Φ_q = μ_q^(p−1) · texel area the light entering texel q per unit irradiance
+// the LUT's axes), s = f / F_sphere on the sphere's shadow side (θ ≥ 100°, held at its 100°
+// value toward the light): what the point receives in shadow is scaled as the measured
+// sphere's shadow side is over the profile's, so a sphere keeps f exactly for any V, Φ_q = μ_q^(p−1) · texel area the light entering texel q per unit irradiance
 // (μ^p the entry factor, 1/μ the surface a texel covers). The subsurface map pass
 // (fs_subsurface_map) renders each shadowed light's first surface into level 0 of a pyramid
 // (Φ·position, Φ), fine enough that ℓ_c spans 1.5 texels; each level sums 2 × 2 of the one
@@ -181,6 +183,8 @@ struct Shadows {
 @group(1) @binding(3) var lut_sampler: sampler;
 // F_sphere(κ, θ): R_far over the osculating sphere, on the LUT's axes (π·L/E).
 @group(1) @binding(4) var subsurface_sphere: texture_2d<f32>;
+// s(κ, θ): the measured table over F_sphere on the sphere's shadow side (see the header).
+@group(1) @binding(5) var subsurface_gain: texture_2d<f32>;
 @group(2) @binding(0) var<uniform> draw: Draw;
 @group(3) @binding(0) var<uniform> shadows: Shadows;
 @group(3) @binding(1) var shadow_maps: texture_depth_2d_array;
@@ -813,6 +817,13 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                     // The far field the table holds through the osculating sphere: the gather
                     // brings it from the surface that is there.
                     f -= subsurface_sphere_value(in.curvature_per_mm, theta);
+                    if SHADOWS {
+                        // Where the point is in shadow, the gathered light is what the table's
+                        // shadow side is made of: scaled as the sphere's is.
+                        let gain = subsurface_gain_value(in.curvature_per_mm, theta);
+                        let v = terms.visibility;
+                        terms.transmission *= v + (vec3<f32>(1.0) - v) * gain;
+                    }
                 }
                 if SHADOWS {
                     f *= terms.visibility;
@@ -915,6 +926,12 @@ fn surfel_irradiance(index: u32, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
 fn subsurface_sphere_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
     let at = lut_coordinates(curvature_per_mm, theta);
     return read_bilinear(subsurface_sphere, at.x, at.y, material.lut_size);
+}
+
+// s(κ, θ) on the LUT's axes (as lut_value).
+fn subsurface_gain_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
+    let at = lut_coordinates(curvature_per_mm, theta);
+    return read_bilinear(subsurface_gain, at.x, at.y, material.lut_size);
 }
 
 // R_far(d) per channel, mm⁻² (0 beyond the table's reach).

@@ -83,8 +83,9 @@ impl MaterialFactory {
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                     count: None,
                 },
-                // The subsurface gather's F_sphere(κ, θ).
+                // The subsurface gather's F_sphere(κ, θ) and its gain in shadow s(κ, θ).
                 texture(4),
+                texture(5),
             ],
         });
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -213,23 +214,43 @@ impl MaterialFactory {
             view.values(),
         )?;
         uniforms.view_size = [view.phi_count() as f32, view.theta_count() as f32];
-        let sphere_texture = match &subsurface {
-            Some(tables) => self.upload_table(
-                device,
-                queue,
-                "cdrf subsurface sphere",
-                tables.sphere_columns,
-                tables.sphere_rows,
-                &tables.sphere,
-            )?,
-            None => self.upload_table(
-                device,
-                queue,
-                "cdrf subsurface sphere (unused)",
-                1,
-                1,
-                &[Vec3::ZERO],
-            )?,
+        let (sphere_texture, gain_texture) = match &subsurface {
+            Some(tables) => (
+                self.upload_table(
+                    device,
+                    queue,
+                    "cdrf subsurface sphere",
+                    tables.sphere_columns,
+                    tables.sphere_rows,
+                    &tables.sphere,
+                )?,
+                self.upload_table(
+                    device,
+                    queue,
+                    "cdrf subsurface gain",
+                    tables.sphere_columns,
+                    tables.sphere_rows,
+                    &tables.gain,
+                )?,
+            ),
+            None => (
+                self.upload_table(
+                    device,
+                    queue,
+                    "cdrf subsurface sphere (unused)",
+                    1,
+                    1,
+                    &[Vec3::ZERO],
+                )?,
+                self.upload_table(
+                    device,
+                    queue,
+                    "cdrf subsurface gain (unused)",
+                    1,
+                    1,
+                    &[Vec3::ONE],
+                )?,
+            ),
         };
 
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -240,6 +261,7 @@ impl MaterialFactory {
         let lut_view = lut_texture.create_view(&Default::default());
         let view_view = view_texture.create_view(&Default::default());
         let sphere_view = sphere_texture.create_view(&Default::default());
+        let gain_view = gain_texture.create_view(&Default::default());
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cdrf material"),
             layout: &self.layout,
@@ -263,6 +285,10 @@ impl MaterialFactory {
                 wgpu::BindGroupEntry {
                     binding: 4,
                     resource: wgpu::BindingResource::TextureView(&sphere_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: wgpu::BindingResource::TextureView(&gain_view),
                 },
             ],
         });
@@ -316,6 +342,8 @@ struct SubsurfaceTables {
     reach_mm: f32,
     /// F_sphere on the LUT's axes: θ columns, κ rows.
     sphere: Vec<Vec3>,
+    /// s(κ, θ), on the same axes: the table over F_sphere at max(θ, [`Self::GAIN_FROM_THETA_DEG`]).
+    gain: Vec<Vec3>,
     sphere_columns: usize,
     sphere_rows: usize,
 }
@@ -323,6 +351,40 @@ struct SubsurfaceTables {
 impl SubsurfaceTables {
     /// Past this many of its longest length R_far is below e⁻¹² of its start.
     const REACH_LENGTHS: f64 = 12.0;
+
+    /// The gain is read on the shadow side, where the table's near field has died out (the
+    /// profile's own near part is below 3 % of its far field past 100°).
+    const GAIN_FROM_THETA_DEG: f32 = 100.0;
+    /// Bounds on the gain: where F_sphere and the table both fade (deep shadow of a large sphere)
+    /// their ratio is the table's noise.
+    const GAIN_RANGE: [f32; 2] = [0.25, 4.0];
+
+    /// s(κ, θ) = f(κ, θ′) / F_sphere(κ, θ′), θ′ = max(θ, 100°), per channel: how much more
+    /// (or less) the measured sphere glows in its shadow than the profile's far field says.
+    fn gain(lut: &CdrfLut, sphere: &[Vec3], columns: usize) -> Vec<Vec3> {
+        let from = (0..columns)
+            .find(|&c| {
+                cdrf_core::lut::theta_rad_at(c, columns) >= Self::GAIN_FROM_THETA_DEG.to_radians()
+            })
+            .unwrap_or(columns.saturating_sub(1));
+        let [low, high] = Self::GAIN_RANGE;
+        let mut gain = Vec::with_capacity(sphere.len());
+        for (row, far_row) in sphere.chunks(columns.max(1)).enumerate() {
+            let measured = lut.row(row);
+            for column in 0..columns {
+                let at = column.max(from);
+                let (f, far) = (measured[at], far_row[at]);
+                gain.push(Vec3::from_array(std::array::from_fn(|c| {
+                    if far[c] > 1e-6 {
+                        (f[c] / far[c]).clamp(low, high)
+                    } else {
+                        1.0
+                    }
+                })));
+            }
+        }
+        gain
+    }
 
     fn new(far: &FarField, lut: &CdrfLut) -> Self {
         let reach_mm = Self::REACH_LENGTHS * far.longest_mm().max(far.cut_mm());
@@ -356,10 +418,12 @@ impl SubsurfaceTables {
                 });
             }
         });
+        let gain = Self::gain(lut, &sphere, columns);
         Self {
             kernel,
             reach_mm: reach_mm as f32,
             sphere,
+            gain,
             sphere_columns: columns,
             sphere_rows: rows,
         }
@@ -409,4 +473,50 @@ fn penumbra_taps(sigma_mm: Vec3) -> [GpuPenumbraTap; PENUMBRA_TAPS] {
         };
         GpuPenumbraTap { weight, _pad0: 0.0 }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The gain is the table over F_sphere per channel on the shadow side, held at its 100°
+    /// value toward the lit side, bounded, and 1 where F_sphere vanishes.
+    #[test]
+    fn subsurface_gain_is_the_shadow_side_ratio() {
+        let columns = 181; // 1° per column
+        let axis = CurvatureAxis {
+            min_per_mm: 0.02,
+            max_per_mm: 0.06,
+            count: 2,
+        };
+        let mut radiance = Vec::new();
+        let mut sphere = Vec::new();
+        for row in 0..2 {
+            for column in 0..columns {
+                let far = if row == 1 && column >= 150 {
+                    Vec3::ZERO
+                } else {
+                    Vec3::new(0.1, 0.2, 0.01) * (1.0 + column as f32 / 100.0)
+                };
+                // Red 1.5 × F, green 0.9 × F, blue 10 × F (bounded to 4).
+                radiance.push(far * Vec3::new(1.5 + 0.001 * column as f32, 0.9, 10.0));
+                sphere.push(far);
+            }
+        }
+        let lut = CdrfLut::new(axis, columns, radiance).unwrap();
+        let gain = SubsurfaceTables::gain(&lut, &sphere, columns);
+        assert_eq!(gain.len(), sphere.len());
+        let at = |row: usize, column: usize| gain[row * columns + column];
+        let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 1e-5;
+        // Past 100° the ratio of its own column; before, the 100° column's.
+        assert!(
+            close(at(0, 120), Vec3::new(1.62, 0.9, 4.0)),
+            "{}",
+            at(0, 120)
+        );
+        assert!(close(at(0, 30), Vec3::new(1.6, 0.9, 4.0)), "{}", at(0, 30));
+        assert!(close(at(0, 100), at(0, 0)));
+        // No far field: no gain.
+        assert!(close(at(1, 160), Vec3::ONE), "{}", at(1, 160));
+    }
 }
