@@ -61,10 +61,13 @@ fn scene(half_height_mm: f32, to_light: Vec3, non_local: NonLocal) -> Scene {
             height: SIZE,
             msaa_samples: 4,
         },
-        lights: vec![DirectionalLight {
-            to_light: to_light.normalize(),
-            irradiance: [1.0; 3],
-        }],
+        lights: vec![
+            DirectionalLight {
+                to_light: to_light.normalize(),
+                irradiance: [1.0; 3],
+            }
+            .into(),
+        ],
         shading: ShadingSpec::Measured {
             lut: PathBuf::from("generated"),
         },

@@ -634,10 +634,12 @@ fn compare_gaussian_evaluations(scene: &Scene, assets: &SceneAssets, radius_mm: 
 }
 
 /// One directional light from the image's left, irradiance 1.
-const ONE_LIGHT: [cdrf_core::light::DirectionalLight; 1] = [cdrf_core::light::DirectionalLight {
-    to_light: Vec3::NEG_X,
-    irradiance: [1.0; 3],
-}];
+const ONE_LIGHT: [cdrf_core::light::Light; 1] = [cdrf_core::light::Light::Directional(
+    cdrf_core::light::DirectionalLight {
+        to_light: Vec3::NEG_X,
+        irradiance: [1.0; 3],
+    },
+)];
 
 /// A renderer for `format` holding a 20 mm icosphere and a Lambert material, and an
 /// orthographic view of it from +z — the fixture of the pass-contract tests.
@@ -699,7 +701,7 @@ impl LambertSphere {
 /// failed `prepare` draws nothing; a new target gets its own pipeline.
 #[test]
 fn render_before_prepare_and_after_errors_draws_nothing() {
-    use cdrf_core::light::DirectionalLight;
+    use cdrf_core::light::{DirectionalLight, Light};
     use cdrf_render::{Draw, FrameDesc, PrepareError, Renderer, TargetDesc};
     let HeadlessDevice { device, queue, .. } = software_device();
     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
@@ -726,7 +728,7 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
         material,
         world_from_model: glam::Mat4::IDENTITY,
     }];
-    let frame = |lights: &'static [DirectionalLight]| FrameDesc {
+    let frame = |lights: &'static [Light]| FrameDesc {
         view,
         lights,
         exposure: 1.0,
@@ -739,10 +741,10 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
     assert!(drawn > 1000, "{drawn} bytes drawn");
 
     // Too many lights: an error, and nothing drawn afterwards.
-    static MANY: [DirectionalLight; 17] = [DirectionalLight {
+    static MANY: [Light; 17] = [Light::Directional(DirectionalLight {
         to_light: Vec3::NEG_X,
         irradiance: [1.0; 3],
-    }; 17];
+    }); 17];
     let error = renderer.prepare(device, queue, &frame(&MANY)).unwrap_err();
     assert!(
         matches!(error, PrepareError::TooManyLights { count: 17 }),
@@ -959,6 +961,83 @@ fn prepare_rejects_unusable_input() {
         println!("{error}");
         assert!(matches!(error, PrepareError::BadUnits { .. }), "{error}");
     }
+    // Point and spot lights: unusable values name the light; a point light needs the units
+    // for its 1/d² even without non-local terms.
+    use cdrf_core::light::{Light, PointLight, SpotLight};
+    let point = PointLight {
+        position: Vec3::new(0.0, 0.0, 100.0),
+        intensity: [1000.0; 3],
+    };
+    let spot = SpotLight {
+        position: Vec3::new(0.0, 0.0, 100.0),
+        direction: Vec3::NEG_Z,
+        intensity: [1000.0; 3],
+        inner_angle_rad: 0.1,
+        outer_angle_rad: 0.2,
+    };
+    let bad_lights = [
+        Light::Point(PointLight {
+            position: Vec3::new(f32::NAN, 0.0, 0.0),
+            ..point
+        }),
+        Light::Point(PointLight {
+            intensity: [-1.0, 0.0, 0.0],
+            ..point
+        }),
+        Light::Spot(SpotLight {
+            direction: Vec3::ZERO,
+            ..spot
+        }),
+        Light::Spot(SpotLight {
+            outer_angle_rad: 0.05,
+            ..spot
+        }),
+        Light::Spot(SpotLight {
+            outer_angle_rad: 2.0,
+            ..spot
+        }),
+    ];
+    for bad in bad_lights {
+        let lights = [ONE_LIGHT[0], bad];
+        let error = renderer
+            .prepare(
+                device,
+                queue,
+                &FrameDesc {
+                    lights: &lights,
+                    ..frame(view, 1.0, &ok)
+                },
+            )
+            .unwrap_err();
+        println!("{error}");
+        assert!(
+            matches!(error, PrepareError::BadLight { index: 1, .. }),
+            "{error}"
+        );
+    }
+    let lights = [Light::Point(point), Light::Spot(spot)];
+    let error = renderer
+        .prepare(
+            device,
+            queue,
+            &FrameDesc {
+                lights: &lights,
+                mm_per_world_unit: 0.0,
+                ..frame(view, 1.0, &ok)
+            },
+        )
+        .unwrap_err();
+    assert!(matches!(error, PrepareError::BadUnits { .. }), "{error}");
+    renderer
+        .prepare(
+            device,
+            queue,
+            &FrameDesc {
+                lights: &lights,
+                ..frame(view, 1.0, &ok)
+            },
+        )
+        .unwrap();
     // With them on, prepare returns the shadow pass to submit; with them off, nothing.
     let shadow_pass = renderer
         .prepare(

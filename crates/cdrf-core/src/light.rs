@@ -12,6 +12,119 @@ pub struct DirectionalLight {
     pub irradiance: [f32; 3],
 }
 
+/// A point light: the same intensity in every direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointLight {
+    /// Where it is, world units.
+    pub position: Vec3,
+    /// Linear, per RGB channel: the irradiance on a surface facing the light at d **mm** is
+    /// `intensity / d²` (so with the scene in mm, intensity is in irradiance · mm²).
+    pub intensity: [f32; 3],
+}
+
+/// A spot light: a point light whose intensity fades from its axis to a cone's edge.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpotLight {
+    /// Where it is, world units.
+    pub position: Vec3,
+    /// Unit vector, world space: the way the light shines (its cone's axis).
+    pub direction: Vec3,
+    /// As [`PointLight::intensity`], on the axis.
+    pub intensity: [f32; 3],
+    /// Full intensity out to this angle from the axis (radians) …
+    pub inner_angle_rad: f32,
+    /// … and none beyond this one (radians, > inner, ≤ π/2); between, a smoothstep in the cosine.
+    pub outer_angle_rad: f32,
+}
+
+impl SpotLight {
+    /// The cone's factor (0..=1) for light leaving along the unit vector `from_light`:
+    /// `smoothstep(cos outer, cos inner, from_light · direction)`.
+    pub fn cone_factor(&self, from_light: Vec3) -> f32 {
+        let (cos_outer, cos_inner) = (self.outer_angle_rad.cos(), self.inner_angle_rad.cos());
+        let t = ((from_light.dot(self.direction) - cos_outer) / (cos_inner - cos_outer).max(1e-6))
+            .clamp(0.0, 1.0);
+        t * t * (3.0 - 2.0 * t)
+    }
+}
+
+/// A light of any kind (what a frame and a scene file hold).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    /// Parallel light from a direction.
+    Directional(DirectionalLight),
+    /// Light from a point, falling off as 1/d².
+    Point(PointLight),
+    /// A point light limited to a cone.
+    Spot(SpotLight),
+}
+
+/// What a light gives one surface point: the unit vector toward it and the irradiance on a
+/// surface there facing it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Incidence {
+    /// Unit vector toward the light, world space (zero where the point is at the light).
+    pub to_light: Vec3,
+    /// Irradiance on a surface facing the light, linear, per RGB channel.
+    pub irradiance: [f32; 3],
+}
+
+impl Light {
+    /// The directional light, if this is one (only they have the non-local terms).
+    pub fn as_directional(&self) -> Option<&DirectionalLight> {
+        match self {
+            Self::Directional(light) => Some(light),
+            _ => None,
+        }
+    }
+
+    /// The light arriving at `world_position` (world units; `mm_per_world_unit` turns the
+    /// distance to a point or spot light into mm for its 1/d²). The shader does the same per
+    /// pixel; this is its reference.
+    pub fn incidence(&self, world_position: Vec3, mm_per_world_unit: f32) -> Incidence {
+        let from_point = |position: Vec3, intensity: [f32; 3]| {
+            let offset = position - world_position;
+            let d_mm = offset.length() * mm_per_world_unit;
+            let falloff = 1.0 / (d_mm * d_mm).max(1e-12);
+            Incidence {
+                to_light: offset.normalize_or_zero(),
+                irradiance: intensity.map(|i| i * falloff),
+            }
+        };
+        match *self {
+            Self::Directional(light) => Incidence {
+                to_light: light.to_light,
+                irradiance: light.irradiance,
+            },
+            Self::Point(light) => from_point(light.position, light.intensity),
+            Self::Spot(light) => {
+                let mut incidence = from_point(light.position, light.intensity);
+                let cone = light.cone_factor(-incidence.to_light);
+                incidence.irradiance = incidence.irradiance.map(|e| e * cone);
+                incidence
+            }
+        }
+    }
+}
+
+impl From<DirectionalLight> for Light {
+    fn from(light: DirectionalLight) -> Self {
+        Self::Directional(light)
+    }
+}
+
+impl From<PointLight> for Light {
+    fn from(light: PointLight) -> Self {
+        Self::Point(light)
+    }
+}
+
+impl From<SpotLight> for Light {
+    fn from(light: SpotLight) -> Self {
+        Self::Spot(light)
+    }
+}
+
 /// Which non-local terms a render adds to the CDRF (see [`crate::translucency`]). The default,
 /// all off, is the poster's local model.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -54,5 +167,55 @@ impl NonLocal {
     /// Whether any term is on.
     pub fn any(self) -> bool {
         self.shadows || self.transmission || self.interreflection || self.subsurface
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn point_light_falls_off_with_the_square_of_the_distance_in_mm() {
+        let light = Light::Point(PointLight {
+            position: Vec3::new(0.0, 0.0, 10.0), // world units of 2 mm: 20 mm away
+            intensity: [400.0, 800.0, 0.0],
+        });
+        let at = light.incidence(Vec3::ZERO, 2.0);
+        assert_eq!(at.to_light, Vec3::Z);
+        assert_eq!(at.irradiance, [1.0, 2.0, 0.0]);
+    }
+
+    #[test]
+    fn spot_light_is_full_inside_its_inner_cone_and_dark_outside_its_outer() {
+        let spot = SpotLight {
+            position: Vec3::ZERO,
+            direction: Vec3::NEG_Z,
+            intensity: [1.0; 3],
+            inner_angle_rad: 20f32.to_radians(),
+            outer_angle_rad: 30f32.to_radians(),
+        };
+        let along = |deg: f32| {
+            let r = deg.to_radians();
+            Vec3::new(r.sin(), 0.0, -r.cos())
+        };
+        assert_eq!(spot.cone_factor(along(0.0)), 1.0);
+        assert_eq!(spot.cone_factor(along(19.9)), 1.0);
+        assert_eq!(spot.cone_factor(along(30.1)), 0.0);
+        let middle = spot.cone_factor(along(25.0));
+        assert!(middle > 0.3 && middle < 0.7, "{middle}");
+        // Monotonic between the edges.
+        let mut last = 1.0;
+        for tenth in 200..=300 {
+            let f = spot.cone_factor(along(tenth as f32 / 10.0));
+            assert!(f <= last + 1e-6, "{tenth}: {f} > {last}");
+            last = f;
+        }
+        // A point 10 mm away on the axis: intensity / 100, the cone's factor 1.
+        let at = Light::Spot(spot).incidence(Vec3::new(0.0, 0.0, -10.0), 1.0);
+        assert!(
+            (at.irradiance[0] - 0.01).abs() < 1e-7,
+            "{:?}",
+            at.irradiance
+        );
     }
 }

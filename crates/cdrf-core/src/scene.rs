@@ -1,5 +1,5 @@
-//! The scene file: one mesh, an orthographic or perspective camera, directional lights and a
-//! shading model, in TOML. Headless rendering, the tests and the accuracy evaluation read it.
+//! The scene file: one mesh, an orthographic or perspective camera, lights (directional, point,
+//! spot) and a shading model, in TOML. Headless rendering, the tests and the accuracy evaluation read it.
 //!
 //! ```toml
 //! [mesh]
@@ -21,9 +21,19 @@
 //! height = 512
 //! msaa_samples = 4              # optional: 1 or 4 (default 4); alpha = pixel coverage
 //!
-//! [[light]]                     # one or more
-//! to_light = [-1.0, 0.0, 0.0]   # world space, toward the light (normalised)
-//! irradiance = [1.0, 1.0, 1.0]  # linear, per RGB channel, on a surface facing the light
+//! [[light]]                     # one or more (at most 16 are drawn)
+//! type = "directional"          # optional: "directional" (default) | "point" | "spot"
+//! to_light = [-1.0, 0.0, 0.0]   # directional: world space, toward the light (normalised)
+//! irradiance = [1.0, 1.0, 1.0]  # directional: linear, per RGB channel, on a surface facing it
+//!
+//! [[light]]
+//! type = "spot"
+//! position = [-100.0, 40.0, 80.0]   # point, spot: world units
+//! intensity = [17700.0, 17700.0, 17700.0]  # point, spot: irradiance facing the light at d mm
+//!                                   # = intensity / d²
+//! direction = [1.0, -0.4, -0.8]     # spot: the way it shines (normalised)
+//! inner_angle_deg = 20.0            # spot: full intensity within this angle of the axis …
+//! outer_angle_deg = 30.0            # … none beyond this one (0 ≤ inner < outer ≤ 90)
 //!
 //! [shading]
 //! model = "measured"            # measured | gaussian | lambert | curvature
@@ -61,7 +71,7 @@ use thiserror::Error;
 use crate::curvature::{CurvatureError, CurvatureOptions, mean_curvature_per_mm};
 use crate::gaussian::GaussianCdrf;
 use crate::gaussian_file::{GaussianFileError, read_gaussian};
-use crate::light::{DirectionalLight, NonLocal};
+use crate::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
 use crate::lut::{CdrfLut, ViewCorrection};
 use crate::lut_file::{LutFileError, read_lut};
 use crate::mesh::{LoadError, Mesh};
@@ -73,8 +83,8 @@ pub struct Scene {
     pub mesh: MeshSpec,
     /// The camera and image size.
     pub camera: Camera,
-    /// Directional lights (at least one).
-    pub lights: Vec<DirectionalLight>,
+    /// The lights (at least one), in the file's order.
+    pub lights: Vec<Light>,
     /// The shading model.
     pub shading: ShadingSpec,
     /// The non-local terms (`[shading] shadows`, `transmission`, `interreflection`,
@@ -380,10 +390,20 @@ struct RawCamera {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawLight {
-    #[serde(deserialize_with = "to_light")]
-    to_light: [f32; 3],
-    #[serde(deserialize_with = "irradiance")]
-    irradiance: [f32; 3],
+    #[serde(rename = "type")]
+    kind: Option<String>,
+    #[serde(default, deserialize_with = "optional::to_light")]
+    to_light: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "optional::irradiance")]
+    irradiance: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "optional::position")]
+    position: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "optional::intensity")]
+    intensity: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "optional::direction")]
+    direction: Option<[f32; 3]>,
+    inner_angle_deg: Option<f32>,
+    outer_angle_deg: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -414,6 +434,9 @@ crate::exact_array_fields!(
     up: 3,
     to_light: 3,
     irradiance: 3,
+    position: 3,
+    intensity: 3,
+    direction: 3,
     albedo: 3,
     curvature_range_per_mm: 2,
 );
@@ -603,19 +626,100 @@ impl Scene {
         }
         let mut lights = Vec::with_capacity(raw.light.len());
         for light in raw.light {
-            let to_light = finite3("[[light]] to_light", light.to_light)?;
-            if to_light.length() < 1e-12 {
-                return Err(invalid("[[light]] to_light", "must not be zero".into()));
-            }
-            if light.irradiance.iter().any(|e| !e.is_finite() || *e < 0.0) {
-                return Err(invalid(
+            let kind = light.kind.as_deref().unwrap_or("directional");
+            // Each key belongs to some kinds; a key of another kind is a mistake, not ignored.
+            let keys: [(&'static str, bool, &[&str]); 7] = [
+                (
+                    "[[light]] to_light",
+                    light.to_light.is_some(),
+                    &["directional"],
+                ),
+                (
                     "[[light]] irradiance",
-                    format!("{:?}: must be finite and ≥ 0", light.irradiance),
+                    light.irradiance.is_some(),
+                    &["directional"],
+                ),
+                (
+                    "[[light]] position",
+                    light.position.is_some(),
+                    &["point", "spot"],
+                ),
+                (
+                    "[[light]] intensity",
+                    light.intensity.is_some(),
+                    &["point", "spot"],
+                ),
+                ("[[light]] direction", light.direction.is_some(), &["spot"]),
+                (
+                    "[[light]] inner_angle_deg",
+                    light.inner_angle_deg.is_some(),
+                    &["spot"],
+                ),
+                (
+                    "[[light]] outer_angle_deg",
+                    light.outer_angle_deg.is_some(),
+                    &["spot"],
+                ),
+            ];
+            if !["directional", "point", "spot"].contains(&kind) {
+                return Err(invalid(
+                    "[[light]] type",
+                    format!("\"{kind}\": must be \"directional\", \"point\" or \"spot\""),
                 ));
             }
-            lights.push(DirectionalLight {
-                to_light: to_light.normalize(),
-                irradiance: light.irradiance,
+            for (key, present, kinds) in keys {
+                if present && !kinds.contains(&kind) {
+                    return Err(invalid(key, format!("not used by type = \"{kind}\"")));
+                }
+                if !present && kinds.contains(&kind) {
+                    return Err(invalid(key, format!("required by type = \"{kind}\"")));
+                }
+            }
+            let colour = |key: &'static str, value: Option<[f32; 3]>| {
+                let value = value.unwrap_or_default();
+                if value.iter().any(|e| !e.is_finite() || *e < 0.0) {
+                    Err(invalid(key, format!("{value:?}: must be finite and ≥ 0")))
+                } else {
+                    Ok(value)
+                }
+            };
+            let unit = |key: &'static str, value: Option<[f32; 3]>| {
+                let v = finite3(key, value.unwrap_or_default())?;
+                if v.length() < 1e-12 {
+                    return Err(invalid(key, "must not be zero".into()));
+                }
+                Ok(v.normalize())
+            };
+            lights.push(match kind {
+                "directional" => Light::Directional(DirectionalLight {
+                    to_light: unit("[[light]] to_light", light.to_light)?,
+                    irradiance: colour("[[light]] irradiance", light.irradiance)?,
+                }),
+                "point" => Light::Point(PointLight {
+                    position: finite3("[[light]] position", light.position.unwrap_or_default())?,
+                    intensity: colour("[[light]] intensity", light.intensity)?,
+                }),
+                _ => {
+                    let inner = light.inner_angle_deg.unwrap_or_default();
+                    let outer = light.outer_angle_deg.unwrap_or_default();
+                    // (NaN fails every comparison.)
+                    if !(0.0 <= inner && inner < outer && outer <= 90.0) {
+                        return Err(invalid(
+                            "[[light]] inner_angle_deg, outer_angle_deg",
+                            format!("{inner}, {outer}: must satisfy 0 ≤ inner < outer ≤ 90"),
+                        ));
+                    }
+                    Light::Spot(SpotLight {
+                        position: finite3(
+                            "[[light]] position",
+                            light.position.unwrap_or_default(),
+                        )?,
+                        direction: unit("[[light]] direction", light.direction)?,
+                        intensity: colour("[[light]] intensity", light.intensity)?,
+                        inner_angle_rad: inner.to_radians(),
+                        outer_angle_rad: outer.to_radians(),
+                    })
+                }
             });
         }
 
@@ -807,7 +911,13 @@ lut = "out/measured.exr"
         assert_eq!(scene.mesh.mm_per_unit, 10.0);
         assert_eq!(scene.camera.msaa_samples, 4);
         assert_eq!(scene.lights.len(), 2);
-        assert_eq!(scene.lights[0].to_light, Vec3::NEG_X);
+        assert_eq!(
+            scene.lights[0],
+            Light::Directional(DirectionalLight {
+                to_light: Vec3::NEG_X,
+                irradiance: [1.0; 3]
+            })
+        );
         assert_eq!(
             scene.shading,
             ShadingSpec::Measured {
@@ -867,6 +977,84 @@ lut = "out/measured.exr"
         );
         let error = parse(&text).unwrap_err().to_string();
         assert!(error.contains("shadows"), "{error}");
+    }
+
+    #[test]
+    fn point_and_spot_lights_parse_with_the_issue_keys() {
+        let text = EXAMPLE.replace(
+            "[[light]]\nto_light = [0.0, 1.0, 0.0]\nirradiance = [0.5, 0.5, 0.5]",
+            r#"[[light]]
+type = "point"
+position = [1.0, 2.0, 3.0]
+intensity = [100.0, 200.0, 300.0]
+[[light]]
+type = "spot"
+position = [0.0, 0.0, 10.0]
+intensity = [1.0, 1.0, 1.0]
+direction = [0.0, 0.0, -2.0]
+inner_angle_deg = 20.0
+outer_angle_deg = 30.0"#,
+        );
+        let scene = parse(&text).unwrap();
+        assert_eq!(scene.lights.len(), 3);
+        assert_eq!(
+            scene.lights[1],
+            Light::Point(PointLight {
+                position: Vec3::new(1.0, 2.0, 3.0),
+                intensity: [100.0, 200.0, 300.0]
+            })
+        );
+        let Light::Spot(spot) = scene.lights[2] else {
+            panic!("{:?}", scene.lights[2]);
+        };
+        assert_eq!(spot.direction, Vec3::NEG_Z);
+        assert!((spot.inner_angle_rad - 20f32.to_radians()).abs() < 1e-7);
+        assert!((spot.outer_angle_rad - 30f32.to_radians()).abs() < 1e-7);
+
+        // Wrong, missing and foreign keys name the key.
+        let spot_text = |from: &str, to: &str| text.replace(from, to);
+        for (from, to, key) in [
+            ("type = \"point\"", "type = \"area\"", "[[light]] type"),
+            (
+                "outer_angle_deg = 30.0",
+                "outer_angle_deg = 10.0",
+                "outer_angle_deg",
+            ),
+            (
+                "outer_angle_deg = 30.0",
+                "outer_angle_deg = 95.0",
+                "outer_angle_deg",
+            ),
+            ("outer_angle_deg = 30.0", "", "[[light]] outer_angle_deg"),
+            (
+                "intensity = [100.0, 200.0, 300.0]",
+                "intensity = [100.0, 200.0, 300.0]\nto_light = [1.0, 0.0, 0.0]",
+                "[[light]] to_light",
+            ),
+            (
+                "intensity = [100.0, 200.0, 300.0]",
+                "",
+                "[[light]] intensity",
+            ),
+            (
+                "intensity = [100.0, 200.0, 300.0]",
+                "intensity = [-1.0, 0.0, 0.0]",
+                "[[light]] intensity",
+            ),
+            (
+                "direction = [0.0, 0.0, -2.0]",
+                "direction = [0.0, 0.0, 0.0]",
+                "[[light]] direction",
+            ),
+            (
+                "position = [1.0, 2.0, 3.0]",
+                "position = [1.0, 2.0, nan]",
+                "[[light]] position",
+            ),
+        ] {
+            let message = parse(&spot_text(from, to)).unwrap_err().to_string();
+            assert!(message.contains(key), "{message} lacks {key}");
+        }
     }
 
     #[test]

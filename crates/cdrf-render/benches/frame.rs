@@ -200,10 +200,13 @@ fn main() -> Result<(), Box<dyn Error>> {
                 height: SIZE,
                 msaa_samples: 4,
             },
-            lights: vec![DirectionalLight {
-                to_light: Vec3::new(-1.0, 0.3, 0.5).normalize(),
-                irradiance: [1.0; 3],
-            }],
+            lights: vec![
+                DirectionalLight {
+                    to_light: Vec3::new(-1.0, 0.3, 0.5).normalize(),
+                    irradiance: [1.0; 3],
+                }
+                .into(),
+            ],
             shading,
             non_local: NonLocal::OFF,
         };

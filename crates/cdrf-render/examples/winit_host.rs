@@ -551,7 +551,7 @@ impl Gpu {
     fn draw_frame(
         &mut self,
         view: View,
-        lights: &[DirectionalLight],
+        lights: &[cdrf_render::Light],
         shading: Shading,
         non_local: NonLocal,
         mm_per_world_unit: f32,
@@ -833,10 +833,11 @@ impl App {
         let size = gpu.window.inner_size();
         let view = self.scene.view(size.width as f32 / size.height as f32);
         // Irradiance π: a white Lambertian surface facing the light has radiance 1.
-        let lights = [DirectionalLight {
+        let lights: [cdrf_render::Light; 1] = [DirectionalLight {
             to_light: self.light.to_light(),
             irradiance: [PI; 3],
-        }];
+        }
+        .into()];
         // The mesh is drawn in its own units: world units are model units.
         let mm_per_world_unit = self.config.mm_per_unit;
         match gpu.draw_frame(

@@ -95,9 +95,22 @@ override SUBSURFACE: bool = false;
 const SURFEL_MIN_COSINE: f32 = 0.25;
 
 struct Light {
-    // Unit vector toward the light, world space.
+    // LIGHT_DIRECTIONAL: unit vector toward the light, world space; LIGHT_POINT, LIGHT_SPOT:
+    // the light's position, world units.
+    to_light_or_position: vec3<f32>,
+    kind: u32,
+    // Directional: irradiance on a surface facing the light; point, spot: intensity, the
+    // irradiance facing the light at d mm times d² (linear RGB).
+    irradiance_or_intensity: vec3<f32>,
+    // Spot: cosines of the outer and inner cone angles, and the unit vector it shines along.
+    spot_cos_outer: f32,
+    spot_direction: vec3<f32>,
+    spot_cos_inner: f32,
+}
+
+// What a light gives a surface point (cdrf-core's light::Incidence).
+struct Incidence {
     to_light: vec3<f32>,
-    // Irradiance on a surface facing the light, linear RGB.
     irradiance: vec3<f32>,
 }
 
@@ -110,6 +123,9 @@ struct Frame {
     // Multiplies the radiance.
     exposure: f32,
     light_count: u32,
+    // World units → mm, for the 1/d² of point and spot lights.
+    mm_per_world_unit: f32,
+    // Directional lights first: shadowed light i (i < shadows.light_count) is lights[i].
     lights: array<Light, MAX_LIGHTS>,
 }
 
@@ -797,8 +813,8 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         let phi = angle(dot(normal, to_camera_from(in.world_position)));
         let light_count = min(frame.light_count, MAX_LIGHTS);
         for (var i = 0u; i < light_count; i++) {
-            let light = frame.lights[i];
-            let cos_theta = dot(normal, light.to_light);
+            let incidence = light_incidence(frame.lights[i], in.world_position);
+            let cos_theta = dot(normal, incidence.to_light);
             let theta = angle(cos_theta);
             var f = local_value(in.curvature_per_mm, cos_theta, theta);
             if (SHADOWS || TRANSMISSION || SUBSURFACE) && i < shadows.light_count {
@@ -833,7 +849,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
             if MODEL != MODEL_LAMBERT {
                 f *= view_value(theta, phi);
             }
-            radiance += light.irradiance * FRAC_1_PI * f;
+            radiance += incidence.irradiance * FRAC_1_PI * f;
         }
         if INTERREFLECTION {
             radiance += in.interreflection;
@@ -844,6 +860,31 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         radiance = linear_to_srgb(radiance);
     }
     return vec4<f32>(radiance, 1.0);
+}
+
+// The light arriving at a world position: cdrf-core's Light::incidence.
+fn light_incidence(light: Light, world_position: vec3<f32>) -> Incidence {
+    var incidence: Incidence;
+    if light.kind == LIGHT_DIRECTIONAL {
+        incidence.to_light = light.to_light_or_position;
+        incidence.irradiance = light.irradiance_or_intensity;
+        return incidence;
+    }
+    let offset = light.to_light_or_position - world_position;
+    let d_mm = length(offset) * frame.mm_per_world_unit;
+    incidence.to_light = offset / max(length(offset), 1e-30);
+    var irradiance = light.irradiance_or_intensity / max(d_mm * d_mm, 1e-12);
+    if light.kind == LIGHT_SPOT {
+        let t = clamp(
+            (dot(-incidence.to_light, light.spot_direction) - light.spot_cos_outer)
+                / max(light.spot_cos_inner - light.spot_cos_outer, 1e-6),
+            0.0,
+            1.0,
+        );
+        irradiance *= t * t * (3.0 - 2.0 * t);
+    }
+    incidence.irradiance = irradiance;
+    return incidence;
 }
 
 // The local model's f(κ, θ) (π·L/E; the curvature view has none).
@@ -878,7 +919,7 @@ fn interreflected_radiance(
         let p = (light.light_from_world * vec4<f32>(world_position, 1.0)).xyz
             * shadows.mm_per_world_unit;
         let n = (light.light_from_world * vec4<f32>(normal, 0.0)).xyz;
-        irradiance += frame.lights[i].irradiance * surfel_irradiance(i, p, n);
+        irradiance += frame.lights[i].irradiance_or_intensity * surfel_irradiance(i, p, n);
     }
     var response = local_value(curvature_per_mm, 1.0, 0.0);
     if MODEL != MODEL_LAMBERT {

@@ -1,6 +1,6 @@
 // Declarations shared by cdrf.wgsl and shadow.wgsl. cdrf-render composes each shader as: the
 // constants it generates from its Rust definitions (MAX_LIGHTS, MAX_SHADOW_LIGHTS,
-// PENUMBRA_TAPS, MODEL_*; see src/shaders.rs), then this file, then the shader's own file.
+// PENUMBRA_TAPS, MODEL_*, LIGHT_*; see src/shaders.rs), then this file, then the shader's own file.
 // Every struct here and there is `#[repr(C)]` on the Rust side (src/gpu_types.rs); a test holds
 // their sizes and offsets against naga's reflection of these declarations.
 

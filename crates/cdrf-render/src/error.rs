@@ -132,7 +132,7 @@ pub enum PrepareError {
         exposure: f32,
     },
     /// [`FrameDesc::mm_per_world_unit`](crate::FrameDesc::mm_per_world_unit) is not finite
-    /// and > 0.
+    /// and > 0 where it is needed (a non-local term on, or a point or spot light).
     #[error("mm per world unit = {mm_per_world_unit}: must be finite and > 0")]
     BadUnits {
         /// The value given.

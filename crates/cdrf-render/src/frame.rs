@@ -1,7 +1,7 @@
 //! What the host describes per frame: camera, lights, draws.
 
 use cdrf_core::glam::{Mat4, Vec3};
-use cdrf_core::light::{DirectionalLight, NonLocal};
+use cdrf_core::light::{Light, NonLocal};
 
 use crate::material::MaterialId;
 use crate::mesh::MeshId;
@@ -61,9 +61,10 @@ pub struct Draw {
 pub struct FrameDesc<'a> {
     /// The camera.
     pub view: View,
-    /// Directional lights (at most [`MAX_LIGHTS`](crate::MAX_LIGHTS)), irradiance in linear
-    /// units.
-    pub lights: &'a [DirectionalLight],
+    /// The lights (at most [`MAX_LIGHTS`](crate::MAX_LIGHTS)), irradiance in linear units.
+    /// The non-local terms are for the first [`MAX_SHADOW_LIGHTS`](crate::MAX_SHADOW_LIGHTS)
+    /// *directional* ones; point and spot lights shade with the local model.
+    pub lights: &'a [Light],
     /// Multiplies the radiance (1 for physical output): 0..=[`MAX_EXPOSURE`].
     pub exposure: f32,
     /// The objects, drawn in this order.
@@ -73,6 +74,27 @@ pub struct FrameDesc<'a> {
     /// [`MAX_SHADOW_LIGHTS`](crate::MAX_SHADOW_LIGHTS) lights and returns its commands.
     pub non_local: NonLocal,
     /// Millimetres per world unit: turns shadow-map depths into the thicknesses T(d) and the
-    /// penumbra widths need (the scene file's `mm_per_unit`).
+    /// penumbra widths need, and distances to point and spot lights into mm for their 1/d²
+    /// (the scene file's `mm_per_unit`).
     pub mm_per_world_unit: f32,
+}
+
+impl FrameDesc<'_> {
+    /// The lights in the order the shader holds them: the directional ones first (the first
+    /// [`MAX_SHADOW_LIGHTS`](crate::MAX_SHADOW_LIGHTS) of them have the non-local terms, light
+    /// i its map i), then the rest, each group in the frame's order.
+    pub(crate) fn lights_in_shading_order(&self) -> impl Iterator<Item = &Light> {
+        let directional = |light: &&Light| light.as_directional().is_some();
+        self.lights
+            .iter()
+            .filter(directional)
+            .chain(self.lights.iter().filter(move |l| !directional(l)))
+    }
+
+    /// The directional lights, in the frame's order.
+    pub(crate) fn directional_lights(
+        &self,
+    ) -> impl Iterator<Item = &cdrf_core::light::DirectionalLight> {
+        self.lights.iter().filter_map(Light::as_directional)
+    }
 }

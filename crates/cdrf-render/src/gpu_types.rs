@@ -41,12 +41,14 @@ macro_rules! gpu_struct {
 }
 
 gpu_struct! {
-    /// One directional light (`Light`).
+    /// One light of any kind (`Light`; see the WGSL for the fields of each kind).
     GpuLight as "Light" {
-        to_light: Vec3,
-        _pad0: f32,
-        irradiance: Vec3,
-        _pad1: f32,
+        to_light_or_position: Vec3,
+        kind: u32,
+        irradiance_or_intensity: Vec3,
+        spot_cos_outer: f32,
+        spot_direction: Vec3,
+        spot_cos_inner: f32,
     }
 }
 
@@ -58,7 +60,8 @@ gpu_struct! {
         camera_is_point: u32,
         exposure: f32,
         light_count: u32,
-        _pad0: [u32; 2],
+        mm_per_world_unit: f32,
+        _pad0: u32,
         lights: [GpuLight; MAX_LIGHTS],
     }
 }

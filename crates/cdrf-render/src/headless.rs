@@ -19,7 +19,7 @@ use std::time::Instant;
 
 use cdrf_core::glam::Mat4;
 use cdrf_core::image_file::RgbaImage;
-use cdrf_core::light::{DirectionalLight, NonLocal};
+use cdrf_core::light::{Light, NonLocal};
 use cdrf_core::scene::{Material, Projection, Scene, SceneAssets, SceneError};
 use thiserror::Error;
 
@@ -432,7 +432,7 @@ impl<'a> SceneRenderer<'a> {
     pub fn render(
         &mut self,
         material: MaterialId,
-        lights: &[DirectionalLight],
+        lights: &[Light],
         non_local: NonLocal,
     ) -> Result<Rendered, HeadlessError> {
         let device = self.device;

@@ -17,8 +17,8 @@
 //! use cdrf_core::glam::{self, Mat4, Vec3};
 //! use cdrf_core::{Mesh, mean_curvature_per_mm, CurvatureOptions};
 //! use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
-//! use cdrf_render::{wgpu, DirectionalLight, Draw, FrameDesc, MaterialDesc, MeshDesc, NonLocal,
-//!                   Options, Renderer, TargetDesc, ToCamera, View};
+//! use cdrf_render::{wgpu, DirectionalLight, Draw, FrameDesc, Light, MaterialDesc, MeshDesc,
+//!                   NonLocal, Options, PointLight, Renderer, TargetDesc, ToCamera, View};
 //!
 //! // The host's device (here a software one) and its colour target.
 //! let host = HeadlessDevice::new(AdapterPreference::Software)?;
@@ -38,7 +38,11 @@
 //!         * glam::camera::rh::view::look_at_mat4(Vec3::new(0.0, 0.0, 50.0), Vec3::ZERO, Vec3::Y),
 //!     to_camera: ToCamera::Direction(Vec3::Z),
 //! };
-//! let lights = [DirectionalLight { to_light: Vec3::NEG_X, irradiance: [1.0; 3] }];
+//! // A light from the left, and a lamp 100 mm in front (irradiance 0.2 facing it there).
+//! let lights = [
+//!     Light::Directional(DirectionalLight { to_light: Vec3::NEG_X, irradiance: [1.0; 3] }),
+//!     Light::Point(PointLight { position: Vec3::new(0.0, 0.0, 100.0), intensity: [2000.0; 3] }),
+//! ];
 //! let draws = [Draw { mesh, material, world_from_model: Mat4::IDENTITY }];
 //! let frame = FrameDesc {
 //!     view, lights: &lights, exposure: 1.0, draws: &draws,
@@ -122,7 +126,7 @@ mod renderer;
 pub mod shaders;
 mod target;
 
-pub use cdrf_core::light::{DirectionalLight, NonLocal};
+pub use cdrf_core::light::{DirectionalLight, Incidence, Light, NonLocal, PointLight, SpotLight};
 pub use error::{MaterialError, MeshUploadError, PrepareError, TargetError};
 pub use frame::{Draw, FrameDesc, MAX_EXPOSURE, ToCamera, View};
 pub use material::{MaterialDesc, MaterialId};

@@ -371,7 +371,7 @@ impl NonLocalPass {
             ));
         }
         let maps = self.maps.as_ref().expect("created above");
-        let lights = frame.lights.len().min(MAX_SHADOW_LIGHTS);
+        let lights = frame.directional_lights().count().min(MAX_SHADOW_LIGHTS);
         let mut shadows = GpuShadows {
             mm_per_world_unit: frame.mm_per_world_unit,
             depth_bias_mm: options.shadow_bias_mm.max(0.0),
@@ -383,7 +383,7 @@ impl NonLocalPass {
             ..bytemuck::Zeroable::zeroed()
         };
         let mut passes = vec![0u8; (self.pass_stride * MAX_SHADOW_LIGHTS as u64) as usize];
-        for (index, light) in frame.lights.iter().take(lights).enumerate() {
+        for (index, light) in frame.directional_lights().take(lights).enumerate() {
             let camera = LightCamera::fit(light.to_light, centre, radius);
             shadows.lights[index] = GpuShadowLight {
                 light_from_world: camera.light_from_world,

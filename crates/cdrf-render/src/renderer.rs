@@ -3,7 +3,7 @@
 use std::collections::HashMap;
 
 use cdrf_core::glam::{Mat3, Mat4, Vec3};
-use cdrf_core::light::NonLocal;
+use cdrf_core::light::{Light, NonLocal};
 
 use crate::error::{MaterialError, MeshUploadError, PrepareError};
 use crate::frame::{FrameDesc, ToCamera};
@@ -12,7 +12,7 @@ use crate::material::{GpuMaterialEntry, MaterialDesc, MaterialFactory, MaterialI
 use crate::mesh::{GpuMesh, MeshDesc, MeshId};
 use crate::non_local::{NonLocalPass, ShadowCaster, SurfelBindings};
 use crate::pipelines::Pipelines;
-use crate::shaders::{MAX_LIGHTS, Model};
+use crate::shaders::{GPU_LIGHT_DIRECTIONAL, GPU_LIGHT_POINT, GPU_LIGHT_SPOT, MAX_LIGHTS, Model};
 use crate::target::{Options, TargetDesc};
 
 /// A draw of the last `prepare`: what to bind.
@@ -255,7 +255,7 @@ impl Renderer {
     ///         ) * glam::camera::rh::view::look_at_mat4(Vec3::new(0.0, 0.0, 50.0), Vec3::ZERO, Vec3::Y),
     ///         to_camera: ToCamera::Direction(Vec3::Z),
     ///     },
-    ///     lights: &[DirectionalLight { to_light: Vec3::NEG_X, irradiance: [1.0; 3] }],
+    ///     lights: &[DirectionalLight { to_light: Vec3::NEG_X, irradiance: [1.0; 3] }.into()],
     ///     exposure: 1.0,
     ///     draws: &[Draw { mesh, material, world_from_model: Mat4::IDENTITY }],
     ///     // Cast shadows and transmission: prepare returns the shadow pass.
@@ -450,9 +450,9 @@ impl Renderer {
 
 /// The frame's camera and lights, checked.
 fn frame_uniforms(frame: &FrameDesc<'_>) -> Result<GpuFrame, PrepareError> {
-    if frame.non_local.any()
-        && !(frame.mm_per_world_unit.is_finite() && frame.mm_per_world_unit > 0.0)
-    {
+    let needs_units =
+        frame.non_local.any() || frame.directional_lights().count() < frame.lights.len();
+    if needs_units && !(frame.mm_per_world_unit.is_finite() && frame.mm_per_world_unit > 0.0) {
         return Err(PrepareError::BadUnits {
             mm_per_world_unit: frame.mm_per_world_unit,
         });
@@ -466,26 +466,18 @@ fn frame_uniforms(frame: &FrameDesc<'_>) -> Result<GpuFrame, PrepareError> {
         clip_from_world: frame.view.clip_from_world,
         exposure: frame.exposure,
         light_count: frame.lights.len() as u32,
+        mm_per_world_unit: frame.mm_per_world_unit,
         ..bytemuck::Zeroable::zeroed()
     };
     for (index, light) in frame.lights.iter().enumerate() {
-        if !light.to_light.is_finite() || light.to_light.length_squared() < 1e-12 {
-            return Err(PrepareError::BadLight {
-                index,
-                problem: "direction is zero or not finite",
-            });
-        }
-        if light.irradiance.iter().any(|e| !e.is_finite() || *e < 0.0) {
-            return Err(PrepareError::BadLight {
-                index,
-                problem: "irradiance must be finite and ≥ 0",
-            });
-        }
-        uniforms.lights[index] = GpuLight {
-            to_light: light.to_light.normalize(),
-            irradiance: Vec3::from_array(light.irradiance),
-            ..bytemuck::Zeroable::zeroed()
-        };
+        gpu_light(light).map_err(|problem| PrepareError::BadLight { index, problem })?;
+    }
+    for (slot, light) in uniforms
+        .lights
+        .iter_mut()
+        .zip(frame.lights_in_shading_order())
+    {
+        *slot = gpu_light(light).expect("checked above");
     }
     let (to_camera, is_point) = match frame.view.to_camera {
         ToCamera::Point(eye) => (eye, true),
@@ -548,4 +540,61 @@ fn create_draw_buffer(
         }],
     });
     (buffer, bind_group)
+}
+
+/// One light as the shader holds it, or what is wrong with it.
+fn gpu_light(light: &Light) -> Result<GpuLight, &'static str> {
+    let unit = |v: Vec3, what| {
+        if v.is_finite() && v.length_squared() >= 1e-12 {
+            Ok(v.normalize())
+        } else {
+            Err(what)
+        }
+    };
+    let colour = |c: [f32; 3], what| {
+        if c.iter().all(|e| e.is_finite() && *e >= 0.0) {
+            Ok(Vec3::from_array(c))
+        } else {
+            Err(what)
+        }
+    };
+    let position = |p: Vec3| {
+        if p.is_finite() {
+            Ok(p)
+        } else {
+            Err("position is not finite")
+        }
+    };
+    Ok(match *light {
+        Light::Directional(light) => GpuLight {
+            to_light_or_position: unit(light.to_light, "direction is zero or not finite")?,
+            kind: GPU_LIGHT_DIRECTIONAL,
+            irradiance_or_intensity: colour(light.irradiance, "irradiance must be finite and ≥ 0")?,
+            ..bytemuck::Zeroable::zeroed()
+        },
+        Light::Point(light) => GpuLight {
+            to_light_or_position: position(light.position)?,
+            kind: GPU_LIGHT_POINT,
+            irradiance_or_intensity: colour(light.intensity, "intensity must be finite and ≥ 0")?,
+            ..bytemuck::Zeroable::zeroed()
+        },
+        Light::Spot(light) => {
+            let (inner, outer) = (light.inner_angle_rad, light.outer_angle_rad);
+            // (NaN fails every comparison.)
+            if !(0.0 <= inner && inner < outer && outer <= std::f32::consts::FRAC_PI_2) {
+                return Err("spot angles must satisfy 0 ≤ inner < outer ≤ π/2");
+            }
+            GpuLight {
+                to_light_or_position: position(light.position)?,
+                kind: GPU_LIGHT_SPOT,
+                irradiance_or_intensity: colour(
+                    light.intensity,
+                    "intensity must be finite and ≥ 0",
+                )?,
+                spot_cos_outer: outer.cos(),
+                spot_direction: unit(light.direction, "spot direction is zero or not finite")?,
+                spot_cos_inner: inner.cos(),
+            }
+        }
+    })
 }

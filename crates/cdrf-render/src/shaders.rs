@@ -4,10 +4,10 @@
 //! Each shader is: [`wgsl_constants`], then `shaders/common.wgsl` (the declarations the passes
 //! share), then the shader's own file.
 
-/// Most directional lights in one frame.
+/// Most lights in one frame.
 pub const MAX_LIGHTS: usize = 16;
-/// Lights with a shadow map: the first ones of a frame. Later lights shade with the local model
-/// only.
+/// Lights with a shadow map: the first directional lights of a frame. Later ones, and point and
+/// spot lights, shade with the local model only.
 pub const MAX_SHADOW_LIGHTS: usize = 4;
 /// Penumbra taps per shadowed light: the centre and a Vogel spiral out to 2σ, the same spiral
 /// at every vertex and every tap read. Not fewer taps turned per vertex, nor a few probes
@@ -19,6 +19,11 @@ pub(crate) const PENUMBRA_TAPS: usize = 32;
 /// Samples of the subsurface gather's far-field kernel R_far(d), on a square-root grid in d
 /// (fine where R_far changes fastest).
 pub(crate) const SUBSURFACE_KERNEL_SAMPLES: usize = 128;
+
+/// `Light.kind` in the WGSL.
+pub(crate) const GPU_LIGHT_DIRECTIONAL: u32 = 0;
+pub(crate) const GPU_LIGHT_POINT: u32 = 1;
+pub(crate) const GPU_LIGHT_SPOT: u32 = 2;
 
 const COMMON: &str = include_str!("../shaders/common.wgsl");
 const SHADING: &str = include_str!("../shaders/cdrf.wgsl");
@@ -53,6 +58,13 @@ pub fn wgsl_constants() -> String {
         ("MAX_SHADOW_LIGHTS", MAX_SHADOW_LIGHTS),
         ("PENUMBRA_TAPS", PENUMBRA_TAPS),
         ("SUBSURFACE_KERNEL_SAMPLES", SUBSURFACE_KERNEL_SAMPLES),
+    ] {
+        wgsl.push_str(&format!("const {name}: u32 = {value}u;\n"));
+    }
+    for (name, value) in [
+        ("LIGHT_DIRECTIONAL", GPU_LIGHT_DIRECTIONAL),
+        ("LIGHT_POINT", GPU_LIGHT_POINT),
+        ("LIGHT_SPOT", GPU_LIGHT_SPOT),
     ] {
         wgsl.push_str(&format!("const {name}: u32 = {value}u;\n"));
     }

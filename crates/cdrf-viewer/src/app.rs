@@ -886,10 +886,13 @@ impl ViewerApp {
         };
         let callback = ViewCallback {
             view,
-            lights: vec![DirectionalLight {
-                to_light: self.settings.to_light(),
-                irradiance: [self.settings.irradiance; 3],
-            }],
+            lights: vec![
+                DirectionalLight {
+                    to_light: self.settings.to_light(),
+                    irradiance: [self.settings.irradiance; 3],
+                }
+                .into(),
+            ],
             exposure: self.settings.exposure,
             mesh: self.ids.mesh,
             world_from_model: self.world_from_model(),

@@ -354,7 +354,12 @@ impl StartupFiles {
     /// [`AssetError::Scene`].
     pub fn from_scene(scene_path: &Path, fit_folder: &Path) -> Result<Self, AssetError> {
         let scene = Scene::load(scene_path)?;
-        let light = scene.lights.first();
+        // The viewer's light is directional: a point or spot light as it arrives at the world's
+        // origin.
+        let light = scene
+            .lights
+            .first()
+            .map(|l| l.incidence(Vec3::ZERO, scene.mesh.mm_per_unit));
         Ok(Self {
             mesh: scene.mesh.path.clone(),
             mm_per_unit: scene.mesh.mm_per_unit * scene.mesh.transform.scale,

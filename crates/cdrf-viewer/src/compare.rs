@@ -40,7 +40,7 @@ use cdrf_core::block_error::{self, Block, BlockPixel};
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::{RgbaImage, linear_to_srgb};
-use cdrf_core::light::{DirectionalLight, NonLocal};
+use cdrf_core::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
 use cdrf_core::scene::{Material, Scene};
 use cdrf_core::{CdrfLut, ViewCorrection};
 use cdrf_render::Options;
@@ -456,6 +456,11 @@ pub fn run_case(
     let Some(light) = scene.lights.first().copied() else {
         return Err(case_error("the scene has no light".into()));
     };
+    if scene.lights.len() > 1 {
+        return Err(case_error(
+            "the scene has more than one light: θ regions need one".into(),
+        ));
+    }
 
     // One renderer for every model of the case: the mesh is uploaded and each pipeline built
     // once.
@@ -479,7 +484,7 @@ pub fn run_case(
         albedo: models.lambert_albedo,
     })?;
     let white = add(Material::Lambert { albedo: [1.0; 3] })?;
-    let mut render = |material, lights: &[DirectionalLight], non_local| {
+    let mut render = |material, lights: &[Light], non_local| {
         renderer
             .render(material, lights, non_local)
             .map(|rendered| rendered.image)
@@ -500,29 +505,36 @@ pub fn run_case(
         renders.push(render(material, &scene.lights, model.non_local())?);
     }
 
-    // cos θ per pixel: a white Lambertian surface lit from the light and from the opposite
-    // side gives max(cos θ, 0)/π and max(−cos θ, 0)/π.
-    let unit = |to_light| DirectionalLight {
-        to_light,
-        irradiance: [1.0; 3],
-    };
-    let toward = render(white, &[unit(light.to_light)], NonLocal::OFF)?;
-    let away = render(white, &[unit(-light.to_light)], NonLocal::OFF)?;
-    let cos_theta: Vec<f32> = toward
-        .pixels
-        .iter()
-        .zip(&away.pixels)
-        .map(|(p, q)| {
-            let coverage = p[3].max(1e-6);
-            std::f32::consts::PI * (p[0] - q[0]) / coverage
-        })
-        .collect();
-
     let mask = block_error::covered_mask(&renders[0], ERODE_PX);
     if !mask.iter().any(|&m| m) {
         return Err(case_error("the object covers no pixel fully".into()));
     }
-    let occluded = cast_shadow(&scene, &assets.mesh, light.to_light, width, height);
+    let (occluded, cpu_cos_theta) = cast_shadow(&scene, &assets.mesh, &light, width, height);
+    let cos_theta: Vec<f32> = match light {
+        // cos θ per pixel as the renderer interpolates it: a white Lambertian surface lit from
+        // the light and from the opposite side gives max(cos θ, 0)/π and max(−cos θ, 0)/π.
+        Light::Directional(light) => {
+            let unit = |to_light| {
+                Light::Directional(DirectionalLight {
+                    to_light,
+                    irradiance: [1.0; 3],
+                })
+            };
+            let toward = render(white, &[unit(light.to_light)], NonLocal::OFF)?;
+            let away = render(white, &[unit(-light.to_light)], NonLocal::OFF)?;
+            toward
+                .pixels
+                .iter()
+                .zip(&away.pixels)
+                .map(|(p, q)| {
+                    let coverage = p[3].max(1e-6);
+                    std::f32::consts::PI * (p[0] - q[0]) / coverage
+                })
+                .collect()
+        }
+        // A point or spot light has no opposite: cos θ of the CPU's surface point per pixel.
+        _ => cpu_cos_theta,
+    };
     let geometry = Geometry {
         mask: &mask,
         cos_theta: &cos_theta,
@@ -1004,19 +1016,20 @@ fn relative_path(target: &Path, base: &Path) -> String {
 }
 
 /// Per pixel of the scene camera's `width` × `height` image: 1 where the visible surface point
-/// is hidden from the directional light `to_light` by another part of `mesh` (model units,
-/// placed by the scene's transform), else 0. Two CPU depth maps: the camera's (which surface
-/// point each pixel sees) and the light's (an orthographic map along `to_light`, 2048 cells
-/// across the object, keeping the point nearest the light); a point is occluded when the
-/// light's map holds a point nearer the light than it by more than a slope-scaled bias
-/// (2 + 2 tan θ cells).
+/// is hidden from `light` by another part of `mesh` (model units, placed by the scene's
+/// transform), else 0; and the cosine between that point's normal and its direction to the light
+/// (0 where no surface). Two CPU depth maps: the camera's (which surface point each pixel sees)
+/// and the light's (2048 cells across the object, keeping the point nearest the light:
+/// orthographic along a directional light, a perspective map about a point or spot light's
+/// position); a point is occluded when the light's map holds a point nearer the light than it
+/// by more than a slope-scaled bias (2 + 2 tan θ cells).
 pub fn cast_shadow(
     scene: &Scene,
     mesh: &cdrf_core::Mesh,
-    to_light: Vec3,
+    light: &Light,
     width: u32,
     height: u32,
-) -> Vec<f32> {
+) -> (Vec<f32>, Vec<f32>) {
     let world_from_model = scene.mesh.transform.world_from_model();
     let positions: Vec<Vec3> = mesh
         .positions
@@ -1081,14 +1094,46 @@ pub fn cast_shadow(
         );
     }
 
-    // The light's depth map: along to_light, keep the point nearest the light.
-    let light = to_light.normalize();
-    let u = light.any_orthonormal_vector();
-    let v = light.cross(u);
-    let light_space: Vec<Vec3> = positions
-        .iter()
-        .map(|p| Vec3::new(p.dot(u), p.dot(v), p.dot(light)))
-        .collect();
+    // The light's depth map: (x, y, toward) per point, keeping the largest `toward` (nearest the
+    // light) per cell. Directional: x, y across the light, toward = along it. Point and spot:
+    // x, y the tangents about an axis from the light to the object, toward = −distance; a cell
+    // there covers `cell · distance` of world.
+    let source = match *light {
+        Light::Directional(_) => None,
+        Light::Point(PointLight { position, .. }) | Light::Spot(SpotLight { position, .. }) => {
+            Some(position)
+        }
+    };
+    let directional_light = match light {
+        Light::Directional(light) => light.to_light.normalize(),
+        _ => Vec3::Z,
+    };
+    let axis = match source {
+        Some(position) => {
+            let centre = positions.iter().copied().sum::<Vec3>() / positions.len().max(1) as f32;
+            (centre - position).normalize_or(Vec3::NEG_Z)
+        }
+        None => directional_light,
+    };
+    let u = axis.any_orthonormal_vector();
+    let v = axis.cross(u);
+    let project = |p: Vec3| match source {
+        None => Vec3::new(p.dot(u), p.dot(v), p.dot(directional_light)),
+        Some(position) => {
+            let r = p - position;
+            let z = r.dot(axis).max(1e-6);
+            Vec3::new(r.dot(u) / z, r.dot(v) / z, -r.length())
+        }
+    };
+    let to_light_at = |p: Vec3| match source {
+        None => directional_light,
+        Some(position) => (position - p).normalize_or_zero(),
+    };
+    let world_per_unit = |p: Vec3| match source {
+        None => 1.0,
+        Some(position) => (p - position).length(),
+    };
+    let light_space: Vec<Vec3> = positions.iter().map(|&p| project(p)).collect();
     let (min, max) = light_space.iter().fold(
         (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
         |(lo, hi), p| (lo.min(*p), hi.max(*p)),
@@ -1106,17 +1151,21 @@ pub fn cast_shadow(
             *slot = slot.max(toward);
         });
     }
-    seen.iter()
-        .map(|hit| {
+    let mut cos_thetas = vec![0.0; seen.len()];
+    let occluded = seen
+        .iter()
+        .zip(&mut cos_thetas)
+        .map(|(hit, cos_out)| {
             let Some((_, point, normal)) = hit else {
                 return 0.0;
             };
             // Slope-scaled: a surface at grazing light changes its distance to the light by
             // tan θ per unit across, so a cell holds points up to that much nearer.
-            let cos_theta = normal.dot(light).clamp(-1.0, 1.0);
+            let cos_theta = normal.dot(to_light_at(*point)).clamp(-1.0, 1.0);
+            *cos_out = cos_theta;
             let tan_theta = (1.0 - cos_theta * cos_theta).sqrt() / cos_theta.abs().max(0.02);
-            let bias = cell * (2.0 + 2.0 * tan_theta);
-            let p = to_cell(Vec3::new(point.dot(u), point.dot(v), point.dot(light)));
+            let bias = cell * world_per_unit(*point) * (2.0 + 2.0 * tan_theta);
+            let p = to_cell(project(*point));
             let (x, y) = (p.x.floor() as i64, p.y.floor() as i64);
             if x < 0 || y < 0 || x >= i64::from(CELLS) || y >= i64::from(CELLS) {
                 return 0.0;
@@ -1124,7 +1173,8 @@ pub fn cast_shadow(
             let occluder = nearest[(y as u32 * CELLS + x as u32) as usize];
             if occluder > p.z + bias { 1.0 } else { 0.0 }
         })
-        .collect()
+        .collect();
+    (occluded, cos_thetas)
 }
 
 /// Calls `shade(x, y, barycentric weights)` for every pixel centre (x + 0.5, y + 0.5) of a

@@ -10,7 +10,7 @@
 //! texture lookup.
 
 use cdrf_core::glam::{Mat4, Vec2};
-use cdrf_core::light::{DirectionalLight, NonLocal};
+use cdrf_core::light::{Light, NonLocal};
 use cdrf_render::{
     Draw, FrameDesc, MaterialId, MeshId, OffscreenTarget, Options, Renderer, TargetDesc, View,
 };
@@ -238,7 +238,7 @@ pub struct ViewCallback {
     /// Camera (built for the slot's aspect).
     pub view: View,
     /// Lights, in world space (mm).
-    pub lights: Vec<DirectionalLight>,
+    pub lights: Vec<Light>,
     /// Exposure multiplier.
     pub exposure: f32,
     /// The mesh, or `None` to show only the background.
