@@ -8,6 +8,9 @@
 //! material, `T(d, μ) = A·μ·exp(−d/ℓ)`, from the spheres' shadow sides), [`evaluate`] (errors) and
 //! [`outputs`] / [`plot`] (the files).
 //!
+//! Without photographs, [`preset`] makes the same two files the renderer reads (`measured.exr`,
+//! `gaussian.toml`) from a named medium or scattering coefficients (the `cdrf-preset` binary).
+//!
 //! ```
 //! use cdrf_fit::dataset::Dataset;
 //! use cdrf_fit::image_io::load_linear_image;
@@ -29,6 +32,7 @@ pub mod gaussian_fit;
 pub mod image_io;
 pub mod outputs;
 pub mod plot;
+pub mod preset;
 pub mod sphere;
 pub mod table;
 pub mod transmission;

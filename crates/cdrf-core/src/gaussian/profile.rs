@@ -213,6 +213,21 @@ impl RadialProfile for SumOfGaussiansProfile {
     }
 }
 
+/// Egan's fit of the diffuse Fresnel reflectance of a boundary of relative index η,
+/// `F_dr = −1.440/η² + 0.710/η + 0.668 + 0.0636 η` (Jensen et al. 2001).
+pub(crate) fn diffuse_fresnel_reflectance(eta: f64) -> f64 {
+    -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta
+}
+
+/// The dipole's total diffuse reflectance from the reduced albedo α' and the internal
+/// reflection parameter `A = (1 + F_dr)/(1 − F_dr)`:
+/// `R_d = α'/2 · (1 + e^(−4/3·A·√(3(1 − α')))) · e^(−√(3(1 − α')))`
+/// ([`DipoleProfile::total_diffuse_reflectance`] per channel).
+pub(crate) fn dipole_total_reflectance(reduced_albedo: f64, a: f64) -> f64 {
+    let s = (3.0 * (1.0 - reduced_albedo)).max(0.0).sqrt();
+    0.5 * reduced_albedo * (1.0 + (-4.0 / 3.0 * a * s).exp()) * (-s).exp()
+}
+
 /// The dipole is negligible (`e^(−σ_tr·d) < 10⁻¹³`) beyond this many `1/σ_tr`.
 const DIPOLE_SUPPORT_LENGTHS: f64 = 30.0;
 
@@ -269,8 +284,7 @@ impl DipoleProfile {
             "sigma_s_prime_per_mm",
         )?;
         check(eta, Range::Positive, "", || "eta".to_owned())?;
-        let n = f64::from(eta);
-        let f_dr = -1.440 / (n * n) + 0.710 / n + 0.668 + 0.0636 * n;
+        let f_dr = diffuse_fresnel_reflectance(f64::from(eta));
         if !(f_dr > -1.0 && f_dr < 1.0) {
             return Err(ParameterError::EtaOutOfRange { eta, f_dr });
         }
@@ -322,6 +336,32 @@ impl DipoleProfile {
     pub fn eta(&self) -> f32 {
         self.eta
     }
+
+    /// The total diffuse reflectance per RGB channel: the profile integrated over the plane,
+    /// `R_d = ∫₀^∞ R_d(d) 2πd dd`, in closed form (Jensen et al. 2001, eq. 8 integrated):
+    ///
+    /// ```text
+    /// R_d = α'/2 · (e^(−σ_tr z_r) + e^(−σ_tr z_v))
+    ///     = α'/2 · (1 + e^(−(4/3)·A·√(3(1 − α')))) · e^(−√(3(1 − α'))).
+    /// ```
+    ///
+    /// This is the albedo of a flat, semi-infinite slab of the medium under the dipole model:
+    /// the fraction of the light entering it that leaves it again, in (0, 1).
+    /// [`PreintegratedCdrf`](super::PreintegratedCdrf) divides the overall scale out, so a
+    /// table of the medium's reflectance multiplies by this.
+    ///
+    /// ```
+    /// use cdrf_core::gaussian::DipoleProfile;
+    ///
+    /// let r_d = DipoleProfile::skin1().total_diffuse_reflectance();
+    /// assert!(r_d[0] > r_d[1] && r_d[1] > r_d[2]); // skin is red
+    /// ```
+    pub fn total_diffuse_reflectance(&self) -> [f64; 3] {
+        self.channels.map(|ch| {
+            // prefactor = α'/4π; each pole integrates to 2π·e^(−σ_tr z).
+            ch.prefactor * TAU * ((-ch.sigma_tr * ch.z_r).exp() + (-ch.sigma_tr * ch.z_v).exp())
+        })
+    }
 }
 
 impl RadialProfile for DipoleProfile {
@@ -348,5 +388,59 @@ impl RadialProfile for DipoleProfile {
             .iter()
             .map(|ch| ch.z_v + DIPOLE_SUPPORT_LENGTHS / ch.sigma_tr)
             .fold(0.0, f64::max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// ∫₀^∞ R(d) 2πd dd by the substitution d = t/(1 − t) and a fine midpoint rule.
+    fn integrate_over_plane(profile: &impl RadialProfile, channel: usize) -> f64 {
+        let n = 400_000;
+        (0..n)
+            .map(|i| {
+                let t = (i as f64 + 0.5) / n as f64;
+                let d = t / (1.0 - t);
+                let jacobian = 1.0 / ((1.0 - t) * (1.0 - t));
+                profile.radial_reflectance(d)[channel] * TAU * d * jacobian / n as f64
+            })
+            .sum()
+    }
+
+    #[test]
+    fn dipole_total_diffuse_reflectance_is_the_profile_integral_and_jensens_formula() {
+        for (sigma_a, sigma_s_prime, eta) in [
+            ([0.032, 0.17, 0.48], [0.74, 0.88, 1.01], 1.3),
+            ([0.0021, 0.0041, 0.0071], [2.19, 2.62, 3.00], 1.3),
+            ([0.003, 0.007, 0.015], [0.997, 0.993, 0.985], 1.0),
+        ] {
+            let dipole = DipoleProfile::new(sigma_a, sigma_s_prime, eta).unwrap();
+            let r_d = dipole.total_diffuse_reflectance();
+            let n = f64::from(eta);
+            let f_dr = -1.440 / (n * n) + 0.710 / n + 0.668 + 0.0636 * n;
+            let a = (1.0 + f_dr) / (1.0 - f_dr);
+            for c in 0..3 {
+                let alpha = f64::from(sigma_s_prime[c]) / f64::from(sigma_s_prime[c] + sigma_a[c]);
+                let root = (3.0 * (1.0 - alpha)).sqrt();
+                let jensen = 0.5 * alpha * (1.0 + (-4.0 / 3.0 * a * root).exp()) * (-root).exp();
+                let integral = integrate_over_plane(&dipole, c);
+                println!(
+                    "channel {c}: R_d {} Jensen {jensen} integral {integral}",
+                    r_d[c]
+                );
+                assert!(
+                    (r_d[c] - jensen).abs() < 1e-4 * jensen,
+                    "{} vs {jensen}",
+                    r_d[c]
+                );
+                assert!(
+                    (r_d[c] - integral).abs() < 2e-3 * integral,
+                    "{} vs {integral}",
+                    r_d[c]
+                );
+                assert!(r_d[c] > 0.0 && r_d[c] < 1.0);
+            }
+        }
     }
 }
