@@ -72,6 +72,7 @@ fn scene(half_height_mm: f32, to_light: Vec3, non_local: NonLocal) -> Scene {
             lut: PathBuf::from("generated"),
         },
         non_local,
+        specular: None,
     }
 }
 

@@ -33,6 +33,7 @@ pub mod block_error;
 pub mod catmull_rom;
 pub mod curvature;
 pub mod diffusion;
+pub mod environment;
 pub mod gaussian;
 pub mod gaussian_file;
 pub mod image_file;
@@ -42,6 +43,7 @@ pub mod lut;
 pub mod lut_file;
 pub mod mesh;
 pub mod scene;
+pub mod specular;
 pub mod translucency;
 
 /// The math types of the public API (positions, normals, matrices).

@@ -46,6 +46,10 @@
 //! interreflection = false       # optional: one bounce of light between parts (default false)
 //! subsurface = false            # optional: light that entered the lit surface nearby, by the
 //!                               # LUT's diffusion profile (default false; replaces T(d, μ))
+//! specular = false              # optional: first-surface reflection on top (default false;
+//!                               # not with model = "curvature"), see crate::specular
+//! specular_roughness = 0.3      # optional: its Beckmann α, 0.01…1 (default 0.3)
+//! ior = 1.45                    # optional: its relative index of refraction, (1, 3] (default 1.45)
 //! ```
 //!
 //! `shadows`, `transmission`, `interreflection` and `subsurface` are the non-local terms ([`NonLocal`], see
@@ -75,6 +79,7 @@ use crate::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
 use crate::lut::{CdrfLut, ViewCorrection};
 use crate::lut_file::{LutFileError, read_lut};
 use crate::mesh::{LoadError, Mesh};
+use crate::specular::{DEFAULT_IOR, DEFAULT_ROUGHNESS_ALPHA, SpecularLayer};
 
 /// A scene: what to render and how.
 #[derive(Clone, Debug, PartialEq)]
@@ -90,6 +95,9 @@ pub struct Scene {
     /// The non-local terms (`[shading] shadows`, `transmission`, `interreflection`,
     /// `subsurface`).
     pub non_local: NonLocal,
+    /// The first-surface reflection (`[shading] specular`, `specular_roughness`, `ior`);
+    /// `None`: off.
+    pub specular: Option<SpecularLayer>,
 }
 
 /// The mesh of a scene.
@@ -424,6 +432,10 @@ struct RawShading {
     interreflection: bool,
     #[serde(default)]
     subsurface: bool,
+    #[serde(default)]
+    specular: bool,
+    specular_roughness: Option<f32>,
+    ior: Option<f32>,
 }
 
 crate::exact_array_fields!(
@@ -805,11 +817,31 @@ impl Scene {
                 ));
             }
         };
+        // Checked whether or not the layer is on, so a file that sets them is never silently
+        // wrong.
+        let layer = SpecularLayer::new(
+            s.specular_roughness.unwrap_or(DEFAULT_ROUGHNESS_ALPHA),
+            s.ior.unwrap_or(DEFAULT_IOR),
+        )
+        .map_err(|error| {
+            let key = match error {
+                crate::specular::SpecularError::Roughness(_) => "[shading] specular_roughness",
+                crate::specular::SpecularError::Ior(_) => "[shading] ior",
+            };
+            invalid(key, error.to_string())
+        })?;
+        if s.specular && matches!(shading, ShadingSpec::Curvature { .. }) {
+            return Err(invalid(
+                "[shading] specular",
+                "not used by model = \"curvature\"".into(),
+            ));
+        }
         Ok(Self {
             mesh,
             camera,
             lights,
             shading,
+            specular: s.specular.then_some(layer),
             non_local: NonLocal {
                 shadows: s.shadows,
                 transmission: s.transmission,
@@ -931,6 +963,45 @@ lut = "out/measured.exr"
             .world_from_model()
             .transform_point3(Vec3::Y);
         assert!((p - Vec3::new(1.0, 2.0, 5.0)).length() < 1e-5, "{p}");
+    }
+
+    #[test]
+    fn specular_keys_parse_with_the_issue_names() {
+        assert_eq!(parse(EXAMPLE).unwrap().specular, None);
+        let with = |extra: &str| {
+            parse(&EXAMPLE.replace(
+                "lut = \"out/measured.exr\"",
+                &format!("lut = \"out/measured.exr\"\n{extra}"),
+            ))
+        };
+        assert_eq!(
+            with("specular = true").unwrap().specular,
+            Some(SpecularLayer::default())
+        );
+        assert_eq!(
+            with("specular = true\nspecular_roughness = 0.2\nior = 1.3")
+                .unwrap()
+                .specular,
+            Some(SpecularLayer::new(0.2, 1.3).unwrap())
+        );
+        // Off, but its parameters are still checked.
+        assert_eq!(with("ior = 1.3").unwrap().specular, None);
+        for (extra, key) in [
+            (
+                "specular = true\nspecular_roughness = 0.0",
+                "specular_roughness",
+            ),
+            ("ior = 0.9", "[shading] ior"),
+            ("specular = true\nior = nan", "[shading] ior"),
+        ] {
+            let message = with(extra).unwrap_err().to_string();
+            assert!(message.contains(key), "{extra}: {message}");
+        }
+        let curvature = EXAMPLE
+            .replace("model = \"measured\"", "model = \"curvature\"")
+            .replace("lut = \"out/measured.exr\"", "specular = true");
+        let message = parse(&curvature).unwrap_err().to_string();
+        assert!(message.contains("[shading] specular"), "{message}");
     }
 
     #[test]

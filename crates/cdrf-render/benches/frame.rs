@@ -209,6 +209,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             ],
             shading,
             non_local: NonLocal::OFF,
+            specular: None,
         };
         let variants = variants();
         let mut times = vec![Vec::new(); variants.len()];

@@ -158,6 +158,12 @@ struct Material {
     subsurface_reach_mm: f32,
     transmission_length_mm: vec3<f32>,
     subsurface_entry_cosine_power: f32,
+    // The specular layer (cdrf-core's specular module): the share of the subsurface light its
+    // boundary lets through (1 when off), on (1) or off (0), Beckmann α and relative index η.
+    subsurface_transmission: vec3<f32>,
+    specular_on: u32,
+    specular_roughness_alpha: f32,
+    specular_ior: f32,
     // Tap k lies at radius 2σ_max·√(k / PENUMBRA_TAPS).
     penumbra_taps: array<PenumbraTap, PENUMBRA_TAPS>,
     // The subsurface gather's R_far(d) per channel (mm⁻², xyz) at
@@ -810,13 +816,18 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         let range = material.curvature_range_per_mm;
         radiance = cool_warm((in.curvature_per_mm - range.x) / max(range.y - range.x, 1e-12));
     } else {
-        let phi = angle(dot(normal, to_camera_from(in.world_position)));
+        let to_camera = to_camera_from(in.world_position);
+        let phi = angle(dot(normal, to_camera));
         let light_count = min(frame.light_count, MAX_LIGHTS);
+        // The first surface's reflection, added after the subsurface light is scaled by what
+        // the boundary lets through.
+        var specular = vec3<f32>(0.0);
         for (var i = 0u; i < light_count; i++) {
             let incidence = light_incidence(frame.lights[i], in.world_position);
             let cos_theta = dot(normal, incidence.to_light);
             let theta = angle(cos_theta);
             var f = local_value(in.curvature_per_mm, cos_theta, theta);
+            var visibility = vec3<f32>(1.0);
             if (SHADOWS || TRANSMISSION || SUBSURFACE) && i < shadows.light_count {
                 var terms: NonLocalTerms;
                 if MODEL == MODEL_LAMBERT {
@@ -843,6 +854,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                 }
                 if SHADOWS {
                     f *= terms.visibility;
+                    visibility = terms.visibility;
                 }
                 f = max(f + terms.transmission, vec3<f32>(0.0));
             }
@@ -850,16 +862,63 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                 f *= view_value(theta, phi);
             }
             radiance += incidence.irradiance * FRAC_1_PI * f;
+            if material.specular_on != 0u {
+                specular += incidence.irradiance * visibility
+                    * specular_radiance(normal, incidence.to_light, to_camera);
+            }
         }
         if INTERREFLECTION {
             radiance += in.interreflection;
         }
-        radiance *= frame.exposure;
+        radiance = (radiance * material.subsurface_transmission + specular) * frame.exposure;
     }
     if ENCODE_SRGB {
         radiance = linear_to_srgb(radiance);
     }
     return vec4<f32>(radiance, 1.0);
+}
+
+// cdrf-core's SpecularLayer::radiance_per_irradiance: F(v·h) D(h) G₁(l) G₁(v) / (4 cos φ),
+// Beckmann D, Smith G₁ in Walter et al.'s rational form, the dielectric's unpolarised Fresnel.
+fn specular_radiance(normal: vec3<f32>, to_light: vec3<f32>, to_camera: vec3<f32>) -> f32 {
+    let cos_theta = dot(normal, to_light);
+    let cos_phi = dot(normal, to_camera);
+    let half_sum = to_light + to_camera;
+    if cos_theta <= 0.0 || cos_phi <= 0.0 || dot(half_sum, half_sum) < 1e-12 {
+        return 0.0;
+    }
+    let half = normalize(half_sum);
+    let cos_half = dot(normal, half);
+    if cos_half <= 0.0 {
+        return 0.0;
+    }
+    let alpha = material.specular_roughness_alpha;
+    let c2 = cos_half * cos_half;
+    let a2 = alpha * alpha;
+    let d = exp(-max(1.0 - c2, 0.0) / (c2 * a2)) / (PI * a2 * c2 * c2);
+    let g = smith_g1(cos_theta, alpha) * smith_g1(cos_phi, alpha);
+    return dielectric_fresnel(dot(to_camera, half), material.specular_ior) * d * g
+        / (4.0 * cos_phi);
+}
+
+fn smith_g1(cosine: f32, alpha: f32) -> f32 {
+    let tangent = sqrt(max(1.0 - cosine * cosine, 0.0)) / cosine;
+    if tangent == 0.0 {
+        return 1.0;
+    }
+    let a = 1.0 / (alpha * tangent);
+    if a >= 1.6 {
+        return 1.0;
+    }
+    return (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a);
+}
+
+fn dielectric_fresnel(cos_incident: f32, eta: f32) -> f32 {
+    let c = clamp(cos_incident, 0.0, 1.0);
+    let ct = sqrt(max(1.0 - (1.0 - c * c) / (eta * eta), 0.0));
+    let rs = (c - eta * ct) / (c + eta * ct);
+    let rp = (eta * c - ct) / (eta * c + ct);
+    return 0.5 * (rs * rs + rp * rp);
 }
 
 // The light arriving at a world position: cdrf-core's Light::incidence.

@@ -51,7 +51,7 @@ pub enum MeshUploadError {
     },
 }
 
-/// Why a material could not be created.
+/// Why a material could not be created or changed.
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum MaterialError {
@@ -68,6 +68,9 @@ pub enum MaterialError {
         /// What it must be.
         requirement: &'static str,
     },
+    /// The material was removed (or made by another renderer).
+    #[error("no such material: it was removed or belongs to another renderer")]
+    Unknown,
     /// A table is larger than the device's largest 2D texture.
     #[error("{what} is {width} × {height} texels; the device allows {max} per side")]
     TooLarge {

@@ -91,6 +91,11 @@ gpu_struct! {
         subsurface_reach_mm: f32,
         transmission_length_mm: Vec3,
         subsurface_entry_cosine_power: f32,
+        subsurface_transmission: Vec3,
+        specular_on: u32,
+        specular_roughness_alpha: f32,
+        specular_ior: f32,
+        _pad2: [f32; 2],
         penumbra_taps: [GpuPenumbraTap; PENUMBRA_TAPS],
         subsurface_kernel: [[f32; 4]; SUBSURFACE_KERNEL_SAMPLES],
     }

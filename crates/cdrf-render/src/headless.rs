@@ -21,6 +21,7 @@ use cdrf_core::glam::Mat4;
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::light::{Light, NonLocal};
 use cdrf_core::scene::{Material, Projection, Scene, SceneAssets, SceneError};
+use cdrf_core::specular::SpecularLayer;
 use thiserror::Error;
 
 use crate::error::{MaterialError, MeshUploadError, PrepareError, TargetError};
@@ -400,7 +401,8 @@ impl<'a> SceneRenderer<'a> {
         })
     }
 
-    /// Uploads a material to render the object with.
+    /// Uploads a material to render the object with, with the scene's specular layer
+    /// (`[shading] specular`) on it unless it is the curvature view.
     ///
     /// # Errors
     /// [`HeadlessError::Material`].
@@ -419,9 +421,28 @@ impl<'a> SceneRenderer<'a> {
                 range_per_mm: *range_per_mm,
             },
         };
+        let id = self
+            .renderer
+            .create_material(&self.device.device, &self.device.queue, &desc)?;
+        if !matches!(material, Material::Curvature { .. }) {
+            self.set_specular(id, self.scene.specular)?;
+        }
+        Ok(id)
+    }
+
+    /// Puts a specular layer on a material or takes it off
+    /// ([`Renderer::set_material_specular`]).
+    ///
+    /// # Errors
+    /// [`HeadlessError::Material`].
+    pub fn set_specular(
+        &mut self,
+        material: MaterialId,
+        layer: Option<SpecularLayer>,
+    ) -> Result<(), HeadlessError> {
         Ok(self
             .renderer
-            .create_material(&self.device.device, &self.device.queue, &desc)?)
+            .set_material_specular(&self.device.queue, material, layer)?)
     }
 
     /// Renders the object with `material` under `lights` and reads the image back; then, if

@@ -127,6 +127,7 @@ pub mod shaders;
 mod target;
 
 pub use cdrf_core::light::{DirectionalLight, Incidence, Light, NonLocal, PointLight, SpotLight};
+pub use cdrf_core::specular::SpecularLayer;
 pub use error::{MaterialError, MeshUploadError, PrepareError, TargetError};
 pub use frame::{Draw, FrameDesc, MAX_EXPOSURE, ToCamera, View};
 pub use material::{MaterialDesc, MaterialId};

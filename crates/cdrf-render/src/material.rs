@@ -3,7 +3,8 @@
 use cdrf_core::diffusion::FarField;
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::glam::Vec3;
-use cdrf_core::{CdrfLut, CurvatureAxis, ViewCorrection};
+use cdrf_core::specular::SpecularLayer;
+use cdrf_core::{Cdrf, CdrfLut, CurvatureAxis, ViewCorrection};
 use wgpu::util::DeviceExt;
 
 use crate::error::MaterialError;
@@ -44,10 +45,68 @@ pub enum MaterialDesc<'a> {
     },
 }
 
+/// The albedo a table's flattest row implies: `∫₀^π f(κ_min, θ) dθ`. A CDRF blurs `cos⁺θ`
+/// along the great circle with a kernel of unit mass, which keeps `∫₋π^π f dθ = 2 · albedo`
+/// (see `cdrf_core::gaussian`), so this is the flat surface's total diffuse reflectance — which
+/// f(κ, 0) itself is not on a curved row: the light that enters beside the point arrives at a
+/// lower cosine.
+fn flat_albedo(lut: &CdrfLut) -> [f32; 3] {
+    const STEPS: usize = 720;
+    let kappa = lut.curvature_axis().min_per_mm;
+    let mut sum = [0.0_f64; 3];
+    for i in 0..STEPS {
+        let theta = (i as f32 + 0.5) / STEPS as f32 * std::f32::consts::PI;
+        let f = lut.reflectance(kappa, theta);
+        for c in 0..3 {
+            sum[c] += f64::from(f[c]);
+        }
+    }
+    sum.map(|s| (s * std::f64::consts::PI / STEPS as f64) as f32)
+}
+
 /// A material's model and bind group (group 1).
 pub(crate) struct GpuMaterialEntry {
     pub(crate) model: Model,
     pub(crate) bind_group: wgpu::BindGroup,
+    /// The parameters as uploaded (the specular layer rewrites them).
+    uniforms: GpuMaterial,
+    buffer: wgpu::Buffer,
+    /// The model's total diffuse reflectance facing the light on its flattest surface, per
+    /// channel: what the specular layer's boundary loss is computed from.
+    matched_albedo: [f32; 3],
+}
+
+impl GpuMaterialEntry {
+    /// Turns the first-surface reflection on (`Some`) or off, in the uniforms at once.
+    pub(crate) fn set_specular(
+        &mut self,
+        queue: &wgpu::Queue,
+        layer: Option<SpecularLayer>,
+    ) -> Result<(), MaterialError> {
+        if layer.is_some() && self.model == Model::Curvature {
+            return Err(MaterialError::Parameter {
+                what: "specular layer",
+                value: Vec::new(),
+                requirement: "the curvature view is not radiance",
+            });
+        }
+        let u = &mut self.uniforms;
+        match layer {
+            Some(layer) => {
+                u.specular_on = 1;
+                u.specular_roughness_alpha = layer.roughness_alpha();
+                u.specular_ior = layer.ior();
+                u.subsurface_transmission =
+                    Vec3::from_array(layer.subsurface_transmission(self.matched_albedo));
+            }
+            None => {
+                u.specular_on = 0;
+                u.subsurface_transmission = Vec3::ONE;
+            }
+        }
+        queue.write_buffer(&self.buffer, 0, bytemuck::bytes_of(&self.uniforms));
+        Ok(())
+    }
 }
 
 /// What every material's bind group is made with.
@@ -115,6 +174,7 @@ impl MaterialFactory {
         let mut uniforms = GpuMaterial {
             albedo_or_scale: Vec3::ONE,
             transmission_length_mm: Vec3::ONE,
+            subsurface_transmission: Vec3::ONE,
             ..bytemuck::Zeroable::zeroed()
         };
         let tabulated;
@@ -256,7 +316,7 @@ impl MaterialFactory {
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("cdrf material uniforms"),
             contents: bytemuck::bytes_of(&uniforms),
-            usage: wgpu::BufferUsages::UNIFORM,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
         let lut_view = lut_texture.create_view(&Default::default());
         let view_view = view_texture.create_view(&Default::default());
@@ -292,7 +352,19 @@ impl MaterialFactory {
                 },
             ],
         });
-        Ok(GpuMaterialEntry { model, bind_group })
+        let matched_albedo = match *desc {
+            MaterialDesc::Measured { lut } => flat_albedo(lut),
+            MaterialDesc::Gaussian { model, .. } => model.scale(),
+            MaterialDesc::Lambert { albedo } => albedo,
+            MaterialDesc::Curvature { .. } => [1.0; 3],
+        };
+        Ok(GpuMaterialEntry {
+            model,
+            bind_group,
+            uniforms,
+            buffer,
+            matched_albedo,
+        })
     }
 
     fn upload_table(

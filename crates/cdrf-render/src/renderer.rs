@@ -4,6 +4,7 @@ use std::collections::HashMap;
 
 use cdrf_core::glam::{Mat3, Mat4, Vec3};
 use cdrf_core::light::{Light, NonLocal};
+use cdrf_core::specular::SpecularLayer;
 
 use crate::error::{MaterialError, MeshUploadError, PrepareError};
 use crate::frame::{FrameDesc, ToCamera};
@@ -216,6 +217,28 @@ impl Renderer {
         let id = MaterialId(self.next_id());
         self.materials.insert(id, material);
         Ok(id)
+    }
+
+    /// Puts the first-surface reflection of a rough dielectric boundary on a material
+    /// (`Some`), or takes it off (`None`, as created): a microfacet lobe per light on top of
+    /// the subsurface light, which is scaled by the share the boundary lets through
+    /// ([`SpecularLayer::subsurface_transmission`](cdrf_core::specular::SpecularLayer::subsurface_transmission)
+    /// of the model's albedo facing the light). It takes effect at once, with no new pipeline.
+    /// Non-local shadows dim it as they dim the subsurface light.
+    ///
+    /// # Errors
+    /// [`MaterialError::Parameter`] for the curvature view; [`MaterialError::Unknown`] for a
+    /// removed material.
+    pub fn set_material_specular(
+        &mut self,
+        queue: &wgpu::Queue,
+        material: MaterialId,
+        layer: Option<SpecularLayer>,
+    ) -> Result<(), MaterialError> {
+        self.materials
+            .get_mut(&material)
+            .ok_or(MaterialError::Unknown)?
+            .set_specular(queue, layer)
     }
 
     /// Frees a material; draws naming it are skipped from the next `prepare` on.

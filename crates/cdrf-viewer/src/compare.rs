@@ -114,6 +114,32 @@ pub struct CaseSpec {
     pub scene: PathBuf,
     /// Path-traced reference, linear radiance OpenEXR, the scene camera's size.
     pub reference: PathBuf,
+    /// What the reference shows (`reference_layer`; default the whole material).
+    #[serde(default)]
+    pub reference_layer: ReferenceLayer,
+}
+
+/// What a case's reference shows, and so which models it is compared with.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ReferenceLayer {
+    /// The whole material: every model of [`ModelName::ALL`], with the scene's specular layer
+    /// if it has one.
+    #[default]
+    Whole,
+    /// The first-surface reflection alone (`knot-spec`): [`ModelName::SpecularLayer`] only; the
+    /// scene must have `[shading] specular = true`.
+    Specular,
+}
+
+impl CaseSpec {
+    /// The models this case is rendered with, in table order.
+    pub fn models(&self) -> &'static [ModelName] {
+        match self.reference_layer {
+            ReferenceLayer::Whole => &ModelName::ALL,
+            ReferenceLayer::Specular => &[ModelName::SpecularLayer],
+        }
+    }
 }
 
 #[derive(Deserialize)]
@@ -149,6 +175,7 @@ pub fn read_manifest(path: &Path) -> Result<Vec<CaseSpec>, CompareError> {
             scene: base.join(&case.scene),
             reference: base.join(&case.reference),
             name: case.name,
+            reference_layer: case.reference_layer,
         })
         .collect())
 }
@@ -233,6 +260,9 @@ pub enum ModelName {
     GaussianShadows,
     /// Lambert with the fitted albedo.
     Lambert,
+    /// The scene's specular layer alone (a black material under it) with cast shadows: the
+    /// model of a [`ReferenceLayer::Specular`] case; not in [`ModelName::ALL`].
+    SpecularLayer,
 }
 
 impl ModelName {
@@ -253,7 +283,9 @@ impl ModelName {
     pub fn non_local(self) -> NonLocal {
         let (shadows, transmission) = match self {
             ModelName::Measured | ModelName::Gaussian | ModelName::Lambert => (false, false),
-            ModelName::MeasuredShadows | ModelName::GaussianShadows => (true, false),
+            ModelName::MeasuredShadows | ModelName::GaussianShadows | ModelName::SpecularLayer => {
+                (true, false)
+            }
             ModelName::MeasuredTransmission => (false, true),
             ModelName::MeasuredShadowsTransmission
             | ModelName::MeasuredShadowsSubsurface
@@ -282,6 +314,7 @@ impl ModelName {
             ModelName::Gaussian => "Gaussian",
             ModelName::GaussianShadows => "Gaussian + shadows",
             ModelName::Lambert => "Lambert",
+            ModelName::SpecularLayer => "specular layer alone + shadows",
         }
     }
 }
@@ -315,7 +348,7 @@ pub struct RegionRow {
     /// Mean reference radiance of the region's blocks (over channels), for scale: the relative
     /// errors of a nearly black region are large however small the absolute error.
     pub reference_mean_radiance: f64,
-    /// Per model, in [`ModelName::ALL`] order.
+    /// Per model, in [`CaseResult::models`] order.
     pub models: Vec<ModelMetrics>,
 }
 
@@ -342,6 +375,8 @@ pub struct CaseResult {
     pub exposure: f32,
     /// Lambert's albedo used.
     pub lambert_albedo: [f32; 3],
+    /// The models compared, in the order of every per-model list here.
+    pub models: Vec<ModelName>,
     /// One row per region.
     pub regions: Vec<RegionRow>,
     /// Render / reference per θ bin and in the cast shadow, per model ([`ThetaTable`]).
@@ -369,7 +404,7 @@ impl CaseResult {
 pub struct CaseImages {
     /// The reference at the compared size.
     pub reference: Option<RgbaImage>,
-    /// The renders, in [`ModelName::ALL`] order.
+    /// The renders, in [`CaseResult::models`] order.
     pub renders: Vec<RgbaImage>,
     /// Per-pixel cos θ.
     pub cos_theta: Vec<f32>,
@@ -484,14 +519,23 @@ pub fn run_case(
         albedo: models.lambert_albedo,
     })?;
     let white = add(Material::Lambert { albedo: [1.0; 3] })?;
+    let black = add(Material::Lambert { albedo: [0.0; 3] })?;
+    if case.reference_layer == ReferenceLayer::Specular && scene.specular.is_none() {
+        return Err(case_error(
+            "reference_layer = \"specular\" needs a scene with [shading] specular = true".into(),
+        ));
+    }
+    // cos θ is measured without the layer.
+    renderer.set_specular(white, None).map_err(render_error)?;
     let mut render = |material, lights: &[Light], non_local| {
         renderer
             .render(material, lights, non_local)
             .map(|rendered| rendered.image)
             .map_err(render_error)
     };
-    let mut renders = Vec::with_capacity(ModelName::ALL.len());
-    for model in ModelName::ALL {
+    let models_compared = case.models();
+    let mut renders = Vec::with_capacity(models_compared.len());
+    for &model in models_compared {
         let material = match model {
             ModelName::Measured
             | ModelName::MeasuredShadows
@@ -501,6 +545,7 @@ pub fn run_case(
             | ModelName::MeasuredAll => measured,
             ModelName::Gaussian | ModelName::GaussianShadows => gaussian,
             ModelName::Lambert => lambert,
+            ModelName::SpecularLayer => black,
         };
         renders.push(render(material, &scene.lights, model.non_local())?);
     }
@@ -555,7 +600,7 @@ pub fn run_case(
     for region in REGIONS {
         let mut models_row = Vec::new();
         let (mut blocks, mut pixels, mut reference_mean_radiance) = (0, 0, f64::NAN);
-        for (index, model) in ModelName::ALL.into_iter().enumerate() {
+        for (index, &model) in models_compared.iter().enumerate() {
             let error = block_error::region_error(&render_blocks[index], region);
             let (flip, count) = region_flip(&flips[index], &geometry, region);
             blocks = error.blocks;
@@ -578,13 +623,21 @@ pub fn run_case(
             models: models_row,
         });
     }
-    let theta = theta_bins::table(&mask, &cos_theta, &occluded, &reference, &renders);
+    let theta = theta_bins::table(
+        models_compared,
+        &mask,
+        &cos_theta,
+        &occluded,
+        &reference,
+        &renders,
+    );
     Ok(CaseResult {
         name: case.name.clone(),
         width,
         height,
         exposure,
         lambert_albedo: models.lambert_albedo,
+        models: models_compared.to_vec(),
         regions,
         theta,
         images: CaseImages {
@@ -711,11 +764,11 @@ fn blocks(render: &RgbaImage, reference: &RgbaImage, geometry: &Geometry<'_>) ->
 fn case_table(result: &CaseResult) -> String {
     let mut text = String::new();
     text.push_str("| region | blocks | mean reference radiance |");
-    for model in ModelName::ALL {
+    for model in &result.models {
         text.push_str(&format!(" {model} |"));
     }
     text.push_str("\n|---|---|---|");
-    text.push_str(&"---|".repeat(ModelName::ALL.len()));
+    text.push_str(&"---|".repeat(result.models.len()));
     text.push('\n');
     for row in &result.regions {
         let best = |metric: fn(&Metrics) -> f64| {

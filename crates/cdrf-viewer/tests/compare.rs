@@ -190,7 +190,7 @@ fn compare_command_writes_json_markdown_a_figure_and_the_results_page() {
     // Reference and one column per model, two rows of panels; the labels (column labels on
     // top, row labels on the left, the colour key at the bottom) add margins around them.
     let columns = 1 + ModelName::ALL.len() as u32;
-    let layout = FigureLayout::new(128, 128);
+    let layout = FigureLayout::new(128, 128, ModelName::ALL.len());
     assert_eq!(
         (
             figure.width() - layout.label_width_px,

@@ -71,7 +71,7 @@
 //!   call (three channels) in a release build.
 
 mod kubo;
-mod profile;
+pub(crate) mod profile;
 pub(crate) mod quadrature;
 mod ring;
 

@@ -28,7 +28,7 @@ pub struct FigureLayout {
     pub panel_width_px: u32,
     /// See `panel_width_px`.
     pub panel_height_px: u32,
-    /// Panels across: the reference and one per model ([`ModelName::ALL`]).
+    /// Panels across: the reference and one per model.
     pub columns: u32,
     /// Panels down: radiance, then regions and signed error.
     pub rows: u32,
@@ -48,15 +48,16 @@ impl FigureLayout {
     /// Lines of the colour key.
     const FOOTER_LINES: u32 = 2;
 
-    /// The layout for panels of `panel_width_px` × `panel_height_px` (the compared size).
-    pub fn new(panel_width_px: u32, panel_height_px: u32) -> Self {
+    /// The layout for panels of `panel_width_px` × `panel_height_px` (the compared size), the
+    /// reference and `model_count` models across.
+    pub fn new(panel_width_px: u32, panel_height_px: u32, model_count: usize) -> Self {
         let text_px = (panel_width_px as f32 / 11.0).clamp(11.0, 22.0);
         let line = Self::line_px(text_px);
         let padding = (text_px / 2.0).ceil() as u32;
         Self {
             panel_width_px,
             panel_height_px,
-            columns: 1 + ModelName::ALL.len() as u32,
+            columns: 1 + model_count as u32,
             rows: 2,
             label_width_px: (8.0 * text_px).ceil() as u32,
             header_height_px: Self::HEADER_LINES * line + padding,
@@ -202,9 +203,9 @@ impl Text<'_> {
 }
 
 /// The labels of the figure's columns: the path-traced reference, then the models.
-pub fn figure_column_labels() -> Vec<&'static str> {
+pub fn figure_column_labels(models: &[ModelName]) -> Vec<&'static str> {
     std::iter::once("path-traced reference")
-        .chain(ModelName::ALL.iter().map(|model| model.short_label()))
+        .chain(models.iter().map(|model| model.short_label()))
         .collect()
 }
 
@@ -215,7 +216,7 @@ pub const FIGURE_ROW_LABELS: [&str; 2] = [
 ];
 
 /// Draws the labels of `layout` into `figure`: column labels, row labels and the colour key.
-fn draw_labels(figure: &mut image::RgbImage, layout: &FigureLayout) {
+fn draw_labels(figure: &mut image::RgbImage, layout: &FigureLayout, models: &[ModelName]) {
     let definitions = egui::FontDefinitions::default();
     let Some(data) = definitions.font_data.get("Ubuntu-Light") else {
         return;
@@ -230,7 +231,7 @@ fn draw_labels(figure: &mut image::RgbImage, layout: &FigureLayout) {
     };
     let padding = (layout.text_px / 4.0).ceil();
     let panel_width = layout.panel_width_px as f32;
-    for (column, label) in figure_column_labels().into_iter().enumerate() {
+    for (column, label) in figure_column_labels(models).into_iter().enumerate() {
         let (x, _) = layout.panel(column as u32, 0);
         let lines = text.wrap(&[(label, colours::TEXT)], panel_width - 2.0 * padding);
         text.draw_lines(
@@ -286,13 +287,13 @@ fn draw_labels(figure: &mut image::RgbImage, layout: &FigureLayout) {
 pub fn figure(result: &CaseResult) -> image::RgbImage {
     let images = &result.images;
     let (w, h) = (result.width, result.height);
-    let layout = FigureLayout::new(w, h);
+    let layout = FigureLayout::new(w, h, result.models.len());
     let mut figure = image::RgbImage::from_pixel(
         layout.width(),
         layout.height(),
         image::Rgb(colours::BACKGROUND),
     );
-    draw_labels(&mut figure, &layout);
+    draw_labels(&mut figure, &layout, &result.models);
     let Some(reference) = &images.reference else {
         return figure;
     };

@@ -27,7 +27,7 @@ pub struct ThetaTable {
     pub pixels: [usize; THETA_BINS],
     /// Compared pixels in a cast shadow.
     pub cast_shadow_pixels: usize,
-    /// One row per model, in [`ModelName::ALL`] order.
+    /// One row per model, in the case's order.
     pub models: Vec<ThetaRatios>,
 }
 
@@ -50,9 +50,10 @@ pub struct ThetaRatios {
 }
 
 /// The table of one case: per pixel compared (`mask`), its `cos_theta` and whether the object
-/// hides it from the light (`occluded`), every render (in [`ModelName::ALL`] order) against
+/// hides it from the light (`occluded`), every render (of `models`, in that order) against
 /// `reference`.
 pub(super) fn table(
+    models: &[ModelName],
     mask: &[bool],
     cos_theta: &[f32],
     occluded: &[f32],
@@ -69,8 +70,9 @@ pub(super) fn table(
     ThetaTable {
         pixels,
         cast_shadow_pixels,
-        models: ModelName::ALL
-            .into_iter()
+        models: models
+            .iter()
+            .copied()
             .zip(renders)
             .map(|(model, render)| ratios(model, render, reference, &bins))
             .collect(),
