@@ -73,6 +73,7 @@ fn scene(half_height_mm: f32, to_light: Vec3, non_local: NonLocal) -> Scene {
         },
         non_local,
         specular: None,
+        environment: None,
     }
 }
 

@@ -285,6 +285,7 @@ fn render_unorm(scene: &Scene, assets: &SceneAssets) -> Srgb8Image {
                 draws: &draws,
                 non_local: NonLocal::OFF,
                 mm_per_world_unit: 1.0,
+                environment: None,
             },
         )
         .unwrap();
@@ -735,6 +736,7 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
         draws: &draws,
         non_local: NonLocal::OFF,
         mm_per_world_unit: 1.0,
+        environment: None,
     };
     renderer.prepare(device, queue, &frame(&ONE_LIGHT)).unwrap();
     let drawn = lit_bytes(&draw_into(&renderer, format));
@@ -775,6 +777,7 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
         draws: &draws,
         non_local: NonLocal::OFF,
         mm_per_world_unit: 1.0,
+        environment: None,
     };
     renderer.prepare(device, queue, &frame).unwrap();
     let srgb = draw_into(&renderer, format);
@@ -899,6 +902,7 @@ fn prepare_rejects_unusable_input() {
         draws,
         non_local: NonLocal::OFF,
         mm_per_world_unit: 1.0,
+        environment: None,
     };
     renderer
         .prepare(device, queue, &frame(view, 1.0, &ok))
@@ -954,6 +958,7 @@ fn prepare_rejects_unusable_input() {
                         ..NonLocal::OFF
                     },
                     mm_per_world_unit,
+                    environment: None,
                     ..frame(view, 1.0, &ok)
                 },
             )
@@ -1023,6 +1028,7 @@ fn prepare_rejects_unusable_input() {
             &FrameDesc {
                 lights: &lights,
                 mm_per_world_unit: 0.0,
+                environment: None,
                 ..frame(view, 1.0, &ok)
             },
         )

@@ -14,7 +14,7 @@ use cdrf_core::image_file::linear_to_srgb;
 use cdrf_tests::data_dir;
 use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
 use cdrf_viewer::app::BACKGROUND;
-use cdrf_viewer::{Compare, StartupFiles, ViewerApp};
+use cdrf_viewer::{Compare, LightKind, StartupFiles, ViewerApp};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use egui_kittest::wgpu::{WgpuTestRenderer, create_render_state, default_wgpu_setup};
@@ -304,6 +304,9 @@ fn dropping_a_mesh_and_a_fit_folder_loads_them() {
         .input_mut()
         .dropped_files
         .push(Arc::new(Dropped(data_dir().join("wax-fit"))));
+    // The cross-polarised look: the layer's boundary would dim the terminator below the
+    // bounds' threshold.
+    harness.state_mut().settings_mut().specular = false;
     harness.run_steps(2);
     assert_eq!(harness.state().error(), None);
     let image = render(&mut harness);
@@ -350,4 +353,76 @@ fn cast_shadow_and_transmission_toggles() {
     assert!(by_shadows > 500, "{by_shadows}");
     assert!(by_transmission > 100, "{by_transmission}");
     assert_golden("viewer_non_local", &both, TOLERANCE);
+}
+
+/// An equirectangular sky written to `path`: light from above and from +x, dark below.
+fn write_sky(path: &std::path::Path) {
+    let (width, height) = (64u32, 32u32);
+    let mut image = cdrf_core::image_file::RgbaImage::new(width, height);
+    for row in 0..height {
+        for column in 0..width {
+            let v = (row as f32 + 0.5) / height as f32;
+            let up = (std::f32::consts::PI * v).cos().max(0.0);
+            let side = if (width / 8..3 * width / 8).contains(&column) {
+                1.0
+            } else {
+                0.0
+            };
+            let value = [
+                0.6 * up + side,
+                0.5 * up + 0.6 * side,
+                0.8 * up + 0.3 * side,
+            ]
+            .map(|v| 0.15 * v);
+            image.pixels[(row * width + column) as usize] = [value[0], value[1], value[2], 1.0];
+        }
+    }
+    image
+        .write_exr(path)
+        .unwrap_or_else(|error| panic!("{error}"));
+}
+
+#[test]
+fn environment_drop_specular_toggle_and_light_kind() {
+    let mut harness = harness();
+    assert!(
+        harness.state().settings().specular,
+        "the viewer's default look has the specular layer"
+    );
+    let default_look = render(&mut harness);
+    // The checkbox is there (below the fold of the side panel at this window size, so set it
+    // as the click would).
+    harness.get_by_label("specular layer");
+    harness.state_mut().settings_mut().specular = false;
+    harness.run_steps(2);
+    assert_eq!(harness.state().error(), None);
+    let cross_polarised = render(&mut harness);
+    let by_specular = changed_pixels(&default_look, &cross_polarised);
+
+    let dir = tempfile::tempdir().unwrap();
+    let sky = dir.path().join("sky.exr");
+    write_sky(&sky);
+    harness
+        .input_mut()
+        .dropped_files
+        .push(Arc::new(Dropped(sky)));
+    harness.run_steps(3);
+    assert_eq!(harness.state().error(), None);
+    harness.get_by_label_contains("environment: sky.exr");
+    let with_sky = render(&mut harness);
+    let by_sky = changed_pixels(&cross_polarised, &with_sky);
+
+    harness.state_mut().settings_mut().light_kind = LightKind::Point;
+    harness.run_steps(2);
+    assert_eq!(harness.state().error(), None);
+    let point = render(&mut harness);
+    let by_point = changed_pixels(&with_sky, &point);
+    println!(
+        "pixels changed: {by_specular} by the specular layer, {by_sky} by the sky, \
+         {by_point} by a point light"
+    );
+    assert!(by_specular > 200, "{by_specular}");
+    assert!(by_sky > 2000, "{by_sky}");
+    assert!(by_point > 200, "{by_point}");
+    assert_golden("viewer_environment", &with_sky, TOLERANCE);
 }

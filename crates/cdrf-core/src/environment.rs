@@ -171,6 +171,32 @@ fn sh_basis_into(k: &[f32], direction: Vec3, order: usize, out: &mut [f32]) {
     }
 }
 
+/// The factor of each basis function over its bare polynomial, at [`sh_index`] for bands
+/// `0..=order`: `K_l0` for m = 0, `√2 K_l|m|` otherwise, so that
+/// `Y_lm = factor · P̃_l^|m|(z) · (Re or Im)(x + i y)^|m|`. A renderer that multiplies the
+/// environment's coefficients by these evaluates only the polynomials per pixel.
+///
+/// # Panics
+/// If `order` > [`MAX_SH_ORDER`].
+pub fn sh_basis_factors(order: usize) -> Vec<f32> {
+    assert!(order <= MAX_SH_ORDER, "SH order {order} > {MAX_SH_ORDER}");
+    let k = sh_normalisation();
+    let mut out = vec![0.0; sh_coefficient_count(order)];
+    for l in 0..=order {
+        for m in 0..=l {
+            let centre = l * l + l;
+            let kp = k[l * (l + 1) / 2 + m];
+            if m == 0 {
+                out[centre] = kp;
+            } else {
+                out[centre + m] = std::f32::consts::SQRT_2 * kp;
+                out[centre - m] = std::f32::consts::SQRT_2 * kp;
+            }
+        }
+    }
+    out
+}
+
 /// The real SH basis `Y_lm(direction)` for bands `0..=order`, at [`sh_index`] (conventions in
 /// the [module docs](self)). `direction` should be a unit vector.
 ///

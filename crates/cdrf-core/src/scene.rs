@@ -50,6 +50,12 @@
 //!                               # not with model = "curvature"), see crate::specular
 //! specular_roughness = 0.3      # optional: its Beckmann α, 0.01…1 (default 0.3)
 //! ior = 1.45                    # optional: its relative index of refraction, (1, 3] (default 1.45)
+//!
+//! [environment]                 # optional: light from every direction, crate::environment
+//! uniform = [0.1, 0.1, 0.1]     # a uniform sky's radiance, linear RGB …
+//! # map = "sky.exr"             # … or an equirectangular linear-radiance OpenEXR (one of the two)
+//! intensity = 1.0               # optional: multiplies it (default 1)
+//! rotate_deg = 0.0              # optional: turns it about world +y (default 0)
 //! ```
 //!
 //! `shadows`, `transmission`, `interreflection` and `subsurface` are the non-local terms ([`NonLocal`], see
@@ -73,6 +79,7 @@ use serde::Deserialize;
 use thiserror::Error;
 
 use crate::curvature::{CurvatureError, CurvatureOptions, mean_curvature_per_mm};
+use crate::environment::{Environment, EnvironmentDesc, EnvironmentError, EnvironmentSource};
 use crate::gaussian::GaussianCdrf;
 use crate::gaussian_file::{GaussianFileError, read_gaussian};
 use crate::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
@@ -98,6 +105,9 @@ pub struct Scene {
     /// The first-surface reflection (`[shading] specular`, `specular_roughness`, `ior`);
     /// `None`: off.
     pub specular: Option<SpecularLayer>,
+    /// The environment light (`[environment]`; its map path resolved), loaded by
+    /// [`Scene::load_environment`].
+    pub environment: Option<EnvironmentDesc>,
 }
 
 /// The mesh of a scene.
@@ -337,6 +347,12 @@ pub enum SceneError {
         /// The parameter file's error (names that file).
         error: GaussianFileError,
     },
+    /// The environment map could not be read or is not usable.
+    #[error("[environment]: {error}")]
+    Environment {
+        /// The environment's error (names the map file).
+        error: EnvironmentError,
+    },
 }
 
 /// `": cause: its cause …"` for every error in `error`'s source chain (empty without one).
@@ -359,6 +375,17 @@ struct RawScene {
     #[serde(default)]
     light: Vec<RawLight>,
     shading: RawShading,
+    environment: Option<RawEnvironment>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEnvironment {
+    #[serde(default, deserialize_with = "optional::uniform")]
+    uniform: Option<[f32; 3]>,
+    map: Option<PathBuf>,
+    intensity: Option<f32>,
+    rotate_deg: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -451,6 +478,7 @@ crate::exact_array_fields!(
     direction: 3,
     albedo: 3,
     curvature_range_per_mm: 2,
+    uniform: 3,
 );
 
 fn one() -> f32 {
@@ -836,11 +864,54 @@ impl Scene {
                 "not used by model = \"curvature\"".into(),
             ));
         }
+        let environment = match raw.environment {
+            None => None,
+            Some(e) => {
+                let source = match (e.uniform, e.map) {
+                    (Some(radiance), None) => {
+                        if radiance.iter().any(|e| !e.is_finite() || *e < 0.0) {
+                            return Err(invalid(
+                                "[environment] uniform",
+                                format!("{radiance:?}: must be finite and ≥ 0"),
+                            ));
+                        }
+                        EnvironmentSource::Uniform(radiance)
+                    }
+                    (None, Some(map)) => EnvironmentSource::Map(base_dir.join(map)),
+                    _ => {
+                        return Err(invalid(
+                            "[environment] uniform, map",
+                            "give exactly one of them".into(),
+                        ));
+                    }
+                };
+                let intensity = e.intensity.unwrap_or(1.0);
+                if !(intensity.is_finite() && intensity >= 0.0) {
+                    return Err(invalid(
+                        "[environment] intensity",
+                        format!("{intensity}: must be finite and ≥ 0"),
+                    ));
+                }
+                let rotate_deg = e.rotate_deg.unwrap_or(0.0);
+                if !rotate_deg.is_finite() {
+                    return Err(invalid(
+                        "[environment] rotate_deg",
+                        format!("{rotate_deg}: must be finite"),
+                    ));
+                }
+                Some(EnvironmentDesc {
+                    source,
+                    intensity,
+                    rotate_deg,
+                })
+            }
+        };
         Ok(Self {
             mesh,
             camera,
             lights,
             shading,
+            environment,
             specular: s.specular.then_some(layer),
             non_local: NonLocal {
                 shadows: s.shadows,
@@ -849,6 +920,18 @@ impl Scene {
                 subsurface: s.subsurface,
             },
         })
+    }
+
+    /// Loads the environment light's map, if any, and checks its parameters (`None`: the scene
+    /// has none).
+    ///
+    /// # Errors
+    /// [`SceneError::Environment`] naming the map file and the problem.
+    pub fn load_environment(&self) -> Result<Option<Environment>, SceneError> {
+        self.environment
+            .as_ref()
+            .map(|desc| Environment::load(desc).map_err(|error| SceneError::Environment { error }))
+            .transpose()
     }
 
     /// Loads the mesh (computing its curvature) and the shading model's files.
@@ -963,6 +1046,51 @@ lut = "out/measured.exr"
             .world_from_model()
             .transform_point3(Vec3::Y);
         assert!((p - Vec3::new(1.0, 2.0, 5.0)).length() < 1e-5, "{p}");
+    }
+
+    #[test]
+    fn environment_keys_parse_with_the_issue_names() {
+        assert_eq!(parse(EXAMPLE).unwrap().environment, None);
+        let with = |table: &str| parse(&format!("{EXAMPLE}\n[environment]\n{table}"));
+        assert_eq!(
+            with("uniform = [0.1, 0.2, 0.3]").unwrap().environment,
+            Some(EnvironmentDesc::uniform([0.1, 0.2, 0.3]))
+        );
+        assert_eq!(
+            with("map = \"sky.exr\"\nintensity = 2.0\nrotate_deg = 90.0")
+                .unwrap()
+                .environment,
+            Some(
+                EnvironmentDesc::map("/scenes/sky.exr")
+                    .with_intensity(2.0)
+                    .with_rotation_deg(90.0)
+            )
+        );
+        for (table, key) in [
+            ("intensity = 1.0", "[environment] uniform, map"),
+            (
+                "uniform = [1.0, 1.0, 1.0]\nmap = \"sky.exr\"",
+                "uniform, map",
+            ),
+            ("uniform = [1.0, -1.0, 1.0]", "[environment] uniform"),
+            ("uniform = [1.0, 1.0]", "uniform"),
+            (
+                "uniform = [1.0, 1.0, 1.0]\nintensity = -1.0",
+                "[environment] intensity",
+            ),
+            (
+                "uniform = [1.0, 1.0, 1.0]\nrotate_deg = inf",
+                "[environment] rotate_deg",
+            ),
+            ("uniform = [1.0, 1.0, 1.0]\nsun = 1", "sun"),
+        ] {
+            let message = with(table).unwrap_err().to_string();
+            assert!(message.contains(key), "{table}: {message}");
+        }
+        // A missing map is the loader's error, naming the file.
+        let scene = with("map = \"missing-sky.exr\"").unwrap();
+        let message = scene.load_environment().unwrap_err().to_string();
+        assert!(message.contains("missing-sky.exr"), "{message}");
     }
 
     #[test]

@@ -5,7 +5,9 @@
 //! the ratios the product promises: measured ≤ 1.15 × Lambert and ≤ 1.02 × Gaussian, and the
 //! non-local terms (shadow pass included) ≤ 1.5 × the poster's measured model. "no penumbra"
 //! (one shadow-map read per light: the table without its translucency terms) separates the
-//! shadow pass's cost from the penumbra's.
+//! shadow pass's cost from the penumbra's. "point + spot + sky + spec." is an engine's lighting
+//! (a point light and a spot three half-heights away, a uniform sky, the specular layer) against
+//! the poster's one directional light.
 //!
 //! ```text
 //! cargo bench -p cdrf-render --bench frame                 # software adapter (lavapipe)
@@ -16,6 +18,7 @@
 use std::error::Error;
 use std::path::PathBuf;
 
+use cdrf_core::environment::EnvironmentDesc;
 use cdrf_core::gaussian_file::read_gaussian;
 use cdrf_core::glam::Vec3;
 use cdrf_core::scene::{
@@ -23,7 +26,7 @@ use cdrf_core::scene::{
 };
 use cdrf_core::{CurvatureOptions, Mesh, mean_curvature_per_mm, read_lut};
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
-use cdrf_render::{DirectionalLight, NonLocal};
+use cdrf_render::{DirectionalLight, NonLocal, PointLight, SpecularLayer, SpotLight};
 use cdrf_render::{GaussianEvaluation, LutFiltering, Options};
 
 const SIZE: u32 = 1024;
@@ -33,6 +36,9 @@ struct Variant {
     material: Material,
     options: Options,
     non_local: NonLocal,
+    /// An engine's lighting instead of the poster's one directional light: a point light, a
+    /// spot, a uniform sky and the specular layer.
+    engine_lights: bool,
 }
 
 fn main() -> Result<(), Box<dyn Error>> {
@@ -86,12 +92,14 @@ fn main() -> Result<(), Box<dyn Error>> {
                 material: Material::Lambert { albedo: [0.8; 3] },
                 options: fast,
                 non_local: NonLocal::OFF,
+                engine_lights: false,
             },
             Variant {
                 name: "measured",
                 material: Material::Measured(lut.clone()),
                 options: fast,
                 non_local: NonLocal::OFF,
+                engine_lights: false,
             },
             Variant {
                 name: "measured (manual filtering)",
@@ -101,6 +109,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                     ..fast
                 },
                 non_local: NonLocal::OFF,
+                engine_lights: false,
             },
             Variant {
                 name: "gaussian (LUT)",
@@ -110,6 +119,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                 },
                 options: fast,
                 non_local: NonLocal::OFF,
+                engine_lights: false,
             },
             Variant {
                 name: "gaussian (analytic)",
@@ -122,18 +132,21 @@ fn main() -> Result<(), Box<dyn Error>> {
                     ..fast
                 },
                 non_local: NonLocal::OFF,
+                engine_lights: false,
             },
             Variant {
                 name: "measured + shadows",
                 material: Material::Measured(lut.clone()),
                 options: fast,
                 non_local: shadows,
+                engine_lights: false,
             },
             Variant {
                 name: "measured + shadows + transm.",
                 material: Material::Measured(lut.clone()),
                 options: fast,
                 non_local: both,
+                engine_lights: false,
             },
             Variant {
                 name: "measured + shadows + subsurface",
@@ -144,12 +157,14 @@ fn main() -> Result<(), Box<dyn Error>> {
                     subsurface: true,
                     ..NonLocal::OFF
                 },
+                engine_lights: false,
             },
             Variant {
                 name: "measured + all (inter-refl. 16²)",
                 material: Material::Measured(lut.clone()),
                 options: fast,
                 non_local: NonLocal::ALL,
+                engine_lights: false,
             },
             Variant {
                 name: "measured + all (inter-refl. 32²)",
@@ -159,12 +174,21 @@ fn main() -> Result<(), Box<dyn Error>> {
                     ..fast
                 },
                 non_local: NonLocal::ALL,
+                engine_lights: false,
             },
             Variant {
                 name: "measured + shadows, no penumbra",
                 material: Material::Measured(opaque_lut.clone()),
                 options: fast,
                 non_local: shadows,
+                engine_lights: false,
+            },
+            Variant {
+                name: "measured, point + spot + sky + spec.",
+                material: Material::Measured(lut.clone()),
+                options: fast,
+                non_local: NonLocal::OFF,
+                engine_lights: true,
             },
         ]
     };
@@ -210,6 +234,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             shading,
             non_local: NonLocal::OFF,
             specular: None,
+            environment: None,
         };
         let variants = variants();
         let mut times = vec![Vec::new(); variants.len()];
@@ -229,6 +254,28 @@ fn main() -> Result<(), Box<dyn Error>> {
                 // The shading spec is not read by render_scene (the assets carry the material).
                 let mut scene = scene(ShadingSpec::Lambert { albedo: [1.0; 3] });
                 scene.non_local = variant.non_local;
+                if variant.engine_lights {
+                    let radius_mm = half_height * mm_per_unit;
+                    let lamp = |offset: Vec3| centre + offset * (3.0 * half_height);
+                    let intensity = [(3.0 * radius_mm).powi(2); 3];
+                    scene.lights = vec![
+                        PointLight {
+                            position: lamp(Vec3::new(-1.0, 0.3, 0.5)),
+                            intensity,
+                        }
+                        .into(),
+                        SpotLight {
+                            position: lamp(Vec3::new(0.8, 0.6, 0.6)),
+                            direction: -Vec3::new(0.8, 0.6, 0.6).normalize(),
+                            intensity,
+                            inner_angle_rad: 15f32.to_radians(),
+                            outer_angle_rad: 25f32.to_radians(),
+                        }
+                        .into(),
+                    ];
+                    scene.environment = Some(EnvironmentDesc::uniform([0.2; 3]));
+                    scene.specular = Some(SpecularLayer::default());
+                }
                 let rendered = render_scene(&device, &scene, &assets, &settings)?;
                 times.push(rendered.ms_per_frame.ok_or("no timing")?);
             }
@@ -242,7 +289,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             let spread = times.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
                 - times.iter().cloned().fold(f64::INFINITY, f64::min);
             println!(
-                "  {:<31} {best:8.2} ms/frame  (fastest round; median {:.2}, spread {spread:.2} ms)",
+                "  {:<37} {best:8.2} ms/frame  (fastest round; median {:.2}, spread {spread:.2} ms)",
                 variant.name,
                 median_of(times)
             );
@@ -304,6 +351,12 @@ fn main() -> Result<(), Box<dyn Error>> {
                 "",
             ),
             (
+                "point + spot + sky + spec. / measured",
+                "measured, point + spot + sky + spec.",
+                "measured",
+                "",
+            ),
+            (
                 "no penumbra / measured",
                 "measured + shadows, no penumbra",
                 "measured",
@@ -311,7 +364,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             ),
         ] {
             println!(
-                "  ratio {label:<32} {:.3}{goal}",
+                "  ratio {label:<40} {:.3}{goal}",
                 ms(numerator) / ms(denominator)
             );
         }

@@ -5,7 +5,8 @@
 //! when the adapter supports it) — and cdrf-render only records its draws into that pass. It
 //! shows the bundled Stanford bunny (or any OBJ / glTF file) in wax: the measured CDRF from
 //! `data/wax-fit/measured.exr`, Kubo's Gaussian CDRF, Lambert and the curvature itself, under
-//! one directional light that circles the model.
+//! one light that circles the model (directional, or a point or spot lamp), with the specular
+//! layer on and, on request, a sky.
 //!
 //! ```text
 //! cargo run --release -p cdrf-render --example winit_host [MESH.obj] [MM_PER_UNIT]
@@ -18,7 +19,10 @@
 //! convex); `←`/`→` move the light around the vertical axis, `↑`/`↓` raise and lower it (either
 //! stops the rotation), `Space` starts or stops the rotation, `M` toggles 4× MSAA, `S` cast
 //! shadows, `T` transmission, `I` inter-reflection and `U` the subsurface gather (the non-local
-//! terms), `Esc` quits.
+//! terms), `L` cycles the light's kind (directional, point, spot: a lamp three radii from
+//! the model, as bright there as the directional light), `P` the specular layer (on at start),
+//! `E` the environment light (a uniform sky, or the equirectangular OpenEXR dropped on the
+//! window), `Esc` quits.
 //! The title shows the model, the shading, the sample count and the time per frame.
 //!
 //! `CDRF_EXIT_AFTER_FRAMES=N` exits cleanly (status 0) after N frames were presented — for
@@ -35,7 +39,10 @@
 //! let wax = renderer.create_material(&device, &queue, &MaterialDesc::Measured { lut: &lut })?;
 //! // Each frame, before your pass: camera, lights, draws.
 //! let draws = [Draw { mesh, material: wax, world_from_model }];
-//! let frame = FrameDesc { view, lights: &lights, exposure: 1.0, draws: &draws, non_local, mm_per_world_unit };
+//! let frame = FrameDesc {
+//!     view, lights: &lights, exposure: 1.0, draws: &draws, non_local, mm_per_world_unit,
+//!     environment: None,
+//! };
 //! let shadow_pass = renderer.prepare(&device, &queue, &frame)?; // empty unless non_local is on
 //! // Inside your pass (whose attachments match `target`):
 //! renderer.render(&mut pass);
@@ -51,12 +58,16 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use cdrf_core::environment::{Environment, EnvironmentRadiance, EquirectMap};
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::gaussian_file::read_gaussian;
 use cdrf_core::glam::Vec3;
 use cdrf_core::glam::camera::rh::{proj::directx, view};
 use cdrf_core::{CdrfLut, CurvatureOptions, Mesh, ViewCorrection, mean_curvature_per_mm, read_lut};
-use cdrf_render::{DirectionalLight, NonLocal};
+use cdrf_render::{
+    DirectionalLight, ENVIRONMENT_SH_ORDER, NonLocal, PointLight, ShCoefficients, SpecularLayer,
+    SpotLight,
+};
 use cdrf_render::{
     Draw, FrameDesc, MaterialDesc, MaterialId, MeshDesc, MeshId, Options, Renderer, TargetDesc,
     ToCamera, View, wgpu,
@@ -312,7 +323,33 @@ impl Shading {
     }
 }
 
-/// The directional light: angle around the vertical axis and height above the horizon.
+/// What kind of light circles the model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum LightKind {
+    Directional,
+    Point,
+    Spot,
+}
+
+impl LightKind {
+    fn next(self) -> Self {
+        match self {
+            Self::Directional => Self::Point,
+            Self::Point => Self::Spot,
+            Self::Spot => Self::Directional,
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Self::Directional => "directional",
+            Self::Point => "point",
+            Self::Spot => "spot",
+        }
+    }
+}
+
+/// The light: angle around the vertical axis and height above the horizon.
 struct Light {
     azimuth_rad: f32,
     elevation_rad: f32,
@@ -498,6 +535,12 @@ impl Gpu {
             materials.push(material);
         }
         let materials = [materials[0], materials[1], materials[2], materials[3]];
+        // The specular layer on at start (the `P` key takes it off).
+        for material in &materials[..3] {
+            renderer
+                .set_material_specular(&queue, *material, Some(SpecularLayer::default()))
+                .map_err(|e| Failure::caused("setting the specular layer", &e))?;
+        }
 
         let attachments = Attachments::new(&device, &config, &target);
         Ok(Self {
@@ -548,6 +591,16 @@ impl Gpu {
         self.attachments = Attachments::new(&self.device, &self.config, &self.target);
     }
 
+    /// Puts the specular layer on the three shading materials, or takes it off.
+    fn set_specular(&mut self, layer: Option<SpecularLayer>) -> Result<(), Failure> {
+        for material in &self.materials[..3] {
+            self.renderer
+                .set_material_specular(&self.queue, *material, layer)
+                .map_err(|e| Failure::caused("setting the specular layer", &e))?;
+        }
+        Ok(())
+    }
+
     fn draw_frame(
         &mut self,
         view: View,
@@ -555,6 +608,7 @@ impl Gpu {
         shading: Shading,
         non_local: NonLocal,
         mm_per_world_unit: f32,
+        environment: Option<&ShCoefficients>,
     ) -> Result<Frame, Failure> {
         let (surface_texture, suboptimal) = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(texture) => (texture, false),
@@ -601,6 +655,7 @@ impl Gpu {
                     draws: &draws,
                     non_local,
                     mm_per_world_unit,
+                    environment,
                 },
             )
             .map_err(|e| Failure::caused("preparing the frame", &e))?;
@@ -724,6 +779,11 @@ struct App {
     shading: Shading,
     non_local: NonLocal,
     light: Light,
+    light_kind: LightKind,
+    specular: bool,
+    /// The environment light's SH (a uniform sky until a map is dropped), and whether it is on.
+    environment: ShCoefficients,
+    environment_on: bool,
     last_frame: Option<Instant>,
     frames_presented: u64,
     title_frames: u32,
@@ -746,6 +806,12 @@ impl App {
                 elevation_rad: 0.0,
                 rotating: true,
             },
+            light_kind: LightKind::Directional,
+            specular: true,
+            environment: Environment::uniform([0.3; 3])
+                .expect("a finite sky")
+                .project_sh(ENVIRONMENT_SH_ORDER),
+            environment_on: false,
             last_frame: None,
             frames_presented: 0,
             title_frames: 0,
@@ -807,6 +873,17 @@ impl App {
             KeyCode::KeyU if !event.repeat => {
                 self.non_local.subsurface = !self.non_local.subsurface;
             }
+            KeyCode::KeyL if !event.repeat => self.light_kind = self.light_kind.next(),
+            KeyCode::KeyP if !event.repeat => {
+                self.specular = !self.specular;
+                if let Some(gpu) = &mut self.gpu
+                    && let Err(failure) =
+                        gpu.set_specular(self.specular.then(SpecularLayer::default))
+                {
+                    self.fail(event_loop, failure);
+                }
+            }
+            KeyCode::KeyE if !event.repeat => self.environment_on = !self.environment_on,
             KeyCode::Escape => event_loop.exit(),
             _ => {}
         }
@@ -832,12 +909,35 @@ impl App {
 
         let size = gpu.window.inner_size();
         let view = self.scene.view(size.width as f32 / size.height as f32);
-        // Irradiance π: a white Lambertian surface facing the light has radiance 1.
-        let lights: [cdrf_render::Light; 1] = [DirectionalLight {
-            to_light: self.light.to_light(),
-            irradiance: [PI; 3],
-        }
-        .into()];
+        // Irradiance π: a white Lambertian surface facing the light has radiance 1 (for a
+        // lamp, at the model's centre, three radii away).
+        let to_light = self.light.to_light();
+        let centre = (self.scene.bounds_min + self.scene.bounds_max) / 2.0;
+        let distance = 1.5 * (self.scene.bounds_max - self.scene.bounds_min).length();
+        let distance_mm = distance * self.config.mm_per_unit;
+        let position = centre + to_light * distance;
+        let intensity = [PI * distance_mm * distance_mm; 3];
+        let lights: [cdrf_render::Light; 1] = [match self.light_kind {
+            LightKind::Directional => DirectionalLight {
+                to_light,
+                irradiance: [PI; 3],
+            }
+            .into(),
+            LightKind::Point => PointLight {
+                position,
+                intensity,
+            }
+            .into(),
+            LightKind::Spot => SpotLight {
+                position,
+                direction: -to_light,
+                intensity,
+                inner_angle_rad: 15f32.to_radians(),
+                outer_angle_rad: 25f32.to_radians(),
+            }
+            .into(),
+        }];
+        let environment = self.environment_on.then_some(&self.environment);
         // The mesh is drawn in its own units: world units are model units.
         let mm_per_world_unit = self.config.mm_per_unit;
         match gpu.draw_frame(
@@ -846,6 +946,7 @@ impl App {
             self.shading,
             self.non_local,
             mm_per_world_unit,
+            environment,
         ) {
             Ok(Frame::Presented) => {
                 self.frames_presented += 1;
@@ -859,9 +960,12 @@ impl App {
         if elapsed >= TITLE_INTERVAL && self.title_frames > 0 {
             let ms_per_frame = elapsed.as_secs_f64() * 1e3 / f64::from(self.title_frames);
             gpu.window.set_title(&format!(
-                "cdrf winit_host — {} — {}{}{}{}{} — {}× MSAA — {ms_per_frame:.1} ms/frame",
+                "cdrf winit_host — {} — {} light — {}{}{}{}{}{}{} — {}× MSAA — {ms_per_frame:.1} ms/frame",
                 self.scene.name,
+                self.light_kind.name(),
                 self.shading.name(),
+                if self.specular { " + specular" } else { "" },
+                if self.environment_on { " + sky" } else { "" },
                 if self.non_local.shadows {
                     " + shadows"
                 } else {
@@ -913,7 +1017,8 @@ impl ApplicationHandler for App {
             Ok(gpu) => {
                 println!(
                     "keys: 1 measured, 2 Gaussian, 3 Lambert, 4 curvature; arrows move the \
-                     light, Space rotates it; M toggles MSAA; Esc quits"
+                     light, Space rotates it, L its kind; P specular, E sky (drop an EXR map); \
+                     S, T, I, U the non-local terms; M toggles MSAA; Esc quits"
                 );
                 gpu.window.request_redraw();
                 self.title_since = Instant::now();
@@ -938,6 +1043,19 @@ impl ApplicationHandler for App {
                 }
             }
             WindowEvent::KeyboardInput { event, .. } => self.key(event_loop, &event),
+            // An equirectangular OpenEXR becomes the environment light.
+            WindowEvent::DroppedFile(path) => {
+                let loaded = EquirectMap::read_exr(&path)
+                    .and_then(|map| Environment::new(EnvironmentRadiance::Map(map), 1.0, 0.0));
+                match loaded {
+                    Ok(environment) => {
+                        self.environment = environment.project_sh(ENVIRONMENT_SH_ORDER);
+                        self.environment_on = true;
+                        println!("{}: environment light", path.display());
+                    }
+                    Err(error) => eprintln!("{}: not used: {error}", path.display()),
+                }
+            }
             WindowEvent::RedrawRequested => self.redraw(event_loop),
             _ => {}
         }

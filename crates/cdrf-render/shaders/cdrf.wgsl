@@ -4,6 +4,9 @@
 // the LUT convention π·L/E (a white Lambertian surface gives max(cos θ, 0)), κ the mean curvature
 // in mm⁻¹, θ the angle between the normal and the direction to the light, φ the angle between the
 // normal and the direction to the camera. See crates/cdrf-core/src/lut.rs for the conventions.
+// An environment light adds its SH sum with the material's zonal coefficients a_l(κ), times
+// g(0, φ); a specular layer (cdrf-core's specular module) scales all of that by the share t its
+// boundary lets through and adds Σ_lights E · f_spec · cos θ (dimmed by the shadows' V).
 //
 // Bind groups (all owned by cdrf-render's Renderer):
 //   0: frame    camera, lights
@@ -125,8 +128,14 @@ struct Frame {
     light_count: u32,
     // World units → mm, for the 1/d² of point and spot lights.
     mm_per_world_unit: f32,
+    // SH bands of the environment light (0: none).
+    environment_bands: u32,
     // Directional lights first: shadowed light i (i < shadows.light_count) is lights[i].
     lights: array<Light, MAX_LIGHTS>,
+    // The environment's SH coefficients L_lm at l² + l + m (rgb), each times its basis
+    // function's normalisation (cdrf-core's environment::sh_basis_factors), so the shader
+    // evaluates the bare polynomials.
+    environment_sh: array<vec4<f32>, ENVIRONMENT_SH_COEFFICIENTS>,
 }
 
 // The Gaussian weight per channel of one penumbra tap.
@@ -164,12 +173,17 @@ struct Material {
     specular_on: u32,
     specular_roughness_alpha: f32,
     specular_ior: f32,
+    // κ of the zonal table's first and last row, mm⁻¹ (equal: one row).
+    environment_curvature_per_mm: vec2<f32>,
     // Tap k lies at radius 2σ_max·√(k / PENUMBRA_TAPS).
     penumbra_taps: array<PenumbraTap, PENUMBRA_TAPS>,
     // The subsurface gather's R_far(d) per channel (mm⁻², xyz) at
     // d = reach · (i / (SUBSURFACE_KERNEL_SAMPLES − 1))²: a uniform array, which the gather reads
     // at every texel (as a texture it cost lavapipe 40 of the gather's 69 ms on the bunny).
     subsurface_kernel: array<vec4<f32>, SUBSURFACE_KERNEL_SAMPLES>,
+    // The environment light's zonal coefficients a_l(κ) (rgb) at row · ENVIRONMENT_SH_BANDS + l,
+    // rows uniform in κ.
+    environment_zonal: array<vec4<f32>, ENVIRONMENT_ZONAL_ROWS * ENVIRONMENT_SH_BANDS>,
 }
 
 struct ShadowLight {
@@ -242,8 +256,9 @@ struct VertexOut {
     @location(8) @interpolate(perspective, centroid) transmission_2: vec3<f32>,
     @location(9) @interpolate(perspective, centroid) visibility_3: vec3<f32>,
     @location(10) @interpolate(perspective, centroid) transmission_3: vec3<f32>,
-    // The inter-reflected radiance of all shadowed lights (before exposure).
-    @location(11) @interpolate(perspective, centroid) interreflection: vec3<f32>,
+    // Radiance evaluated per vertex (before exposure): the inter-reflected light of all
+    // shadowed lights and the environment light, both smooth over the surface.
+    @location(11) @interpolate(perspective, centroid) vertex_radiance: vec3<f32>,
 }
 
 // The non-local terms of a translucent material vary over the scattering length σ (light
@@ -266,13 +281,25 @@ fn vs_main(vertex: VertexIn) -> VertexOut {
     out.transmission_1 = vec3<f32>(0.0);
     out.transmission_2 = vec3<f32>(0.0);
     out.transmission_3 = vec3<f32>(0.0);
-    out.interreflection = vec3<f32>(0.0);
+    out.vertex_radiance = vec3<f32>(0.0);
     if INTERREFLECTION && MODEL != MODEL_CURVATURE {
-        out.interreflection = interreflected_radiance(
+        out.vertex_radiance = interreflected_radiance(
             out.world_position,
             normalize(out.world_normal),
             out.curvature_per_mm,
         );
+    }
+    // The environment light: its order-4 SH sum varies as slowly as the normal does, so per
+    // vertex.
+    if frame.environment_bands != 0u && MODEL != MODEL_CURVATURE {
+        let normal = normalize(out.world_normal);
+        var environment = environment_radiance(normal, out.curvature_per_mm);
+        if MODEL != MODEL_LAMBERT {
+            // Light from everywhere: the view correction of light along the normal.
+            let phi = angle(dot(normal, to_camera_from(out.world_position)));
+            environment *= view_value(0.0, phi);
+        }
+        out.vertex_radiance += environment;
     }
     if (SHADOWS || TRANSMISSION || SUBSURFACE) && MODEL != MODEL_LAMBERT
         && MODEL != MODEL_CURVATURE {
@@ -867,15 +894,71 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                     * specular_radiance(normal, incidence.to_light, to_camera);
             }
         }
-        if INTERREFLECTION {
-            radiance += in.interreflection;
-        }
+        radiance += in.vertex_radiance;
         radiance = (radiance * material.subsurface_transmission + specular) * frame.exposure;
     }
     if ENCODE_SRGB {
         radiance = linear_to_srgb(radiance);
     }
     return vec4<f32>(radiance, 1.0);
+}
+
+// The environment light (cdrf-core's environment::radiance_sh): Σ_l a_l(κ) Σ_m L_lm Y_lm(n),
+// the real SH basis as polynomials in the normal (P̃_l^m(z) · Re/Im (x + i y)^m; the
+// normalisation is in frame.environment_sh), clamped at 0 against ringing. Local: no shadows.
+fn environment_radiance(normal: vec3<f32>, curvature_per_mm: f32) -> vec3<f32> {
+    let bands = min(frame.environment_bands, ENVIRONMENT_SH_BANDS);
+    let range = material.environment_curvature_per_mm;
+    var t = 0.0;
+    if range.y > range.x {
+        t = clamp((curvature_per_mm - range.x) / (range.y - range.x), 0.0, 1.0)
+            * f32(ENVIRONMENT_ZONAL_ROWS - 1u);
+    }
+    let row0 = min(u32(t), ENVIRONMENT_ZONAL_ROWS - 1u);
+    let row1 = min(row0 + 1u, ENVIRONMENT_ZONAL_ROWS - 1u);
+    let w = t - f32(row0);
+    var a: array<vec3<f32>, ENVIRONMENT_SH_BANDS>;
+    for (var l = 0u; l < bands; l++) {
+        a[l] = mix(
+            material.environment_zonal[row0 * ENVIRONMENT_SH_BANDS + l].xyz,
+            material.environment_zonal[row1 * ENVIRONMENT_SH_BANDS + l].xyz,
+            w,
+        );
+    }
+    var radiance = vec3<f32>(0.0);
+    // Re and Im of (x + i y)^m, and P̃_m^m = (2m − 1)!!.
+    var re = 1.0;
+    var im = 0.0;
+    var p_mm = 1.0;
+    for (var m = 0u; m < bands; m++) {
+        if m > 0u {
+            let re_next = re * normal.x - im * normal.y;
+            im = re * normal.y + im * normal.x;
+            re = re_next;
+            p_mm *= f32(2u * m - 1u);
+        }
+        var p_previous = 0.0;
+        var p = p_mm;
+        for (var l = m; l < bands; l++) {
+            if l == m + 1u {
+                p_previous = p;
+                p = f32(2u * m + 1u) * normal.z * p_mm;
+            } else if l > m + 1u {
+                let next = (f32(2u * l - 1u) * normal.z * p - f32(l + m - 1u) * p_previous)
+                    / f32(l - m);
+                p_previous = p;
+                p = next;
+            }
+            let centre = l * l + l;
+            if m == 0u {
+                radiance += a[l] * p * frame.environment_sh[centre].xyz;
+            } else {
+                radiance += a[l] * p * (frame.environment_sh[centre + m].xyz * re
+                    + frame.environment_sh[centre - m].xyz * im);
+            }
+        }
+    }
+    return max(radiance, vec3<f32>(0.0));
 }
 
 // cdrf-core's SpecularLayer::radiance_per_irradiance: F(v·h) D(h) G₁(l) G₁(v) / (4 cos φ),

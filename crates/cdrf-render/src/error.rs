@@ -95,6 +95,9 @@ pub enum PrepareError {
         /// Lights given.
         count: usize,
     },
+    /// An environment coefficient is NaN or infinite.
+    #[error("the environment's SH coefficients must be finite")]
+    BadEnvironment,
     /// A light's direction or irradiance is not usable.
     #[error("light {index}: {problem}")]
     BadLight {

@@ -1,5 +1,6 @@
 //! What the host describes per frame: camera, lights, draws.
 
+use cdrf_core::environment::ShCoefficients;
 use cdrf_core::glam::{Mat4, Vec3};
 use cdrf_core::light::{Light, NonLocal};
 
@@ -77,6 +78,12 @@ pub struct FrameDesc<'a> {
     /// penumbra widths need, and distances to point and spot lights into mm for their 1/d²
     /// (the scene file's `mm_per_unit`).
     pub mm_per_world_unit: f32,
+    /// An environment light: its spherical harmonics (`None`: none), projected once by the
+    /// host with [`Environment::project_sh`](cdrf_core::environment::Environment::project_sh)
+    /// at [`ENVIRONMENT_SH_ORDER`](crate::ENVIRONMENT_SH_ORDER) (bands beyond it are ignored,
+    /// fewer are used as given). It lights every model through the material's zonal
+    /// coefficients; it is local (no shadows) and has no specular reflection.
+    pub environment: Option<&'a ShCoefficients>,
 }
 
 impl FrameDesc<'_> {

@@ -7,7 +7,10 @@
 use bytemuck::{Pod, Zeroable};
 use cdrf_core::glam::{Mat4, Vec3};
 
-use crate::shaders::{MAX_LIGHTS, MAX_SHADOW_LIGHTS, PENUMBRA_TAPS, SUBSURFACE_KERNEL_SAMPLES};
+use crate::shaders::{
+    ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_COEFFICIENTS, ENVIRONMENT_ZONAL_ROWS, MAX_LIGHTS,
+    MAX_SHADOW_LIGHTS, PENUMBRA_TAPS, SUBSURFACE_KERNEL_SAMPLES,
+};
 
 /// Name, size and named field offsets of a struct, for the layout test.
 #[cfg_attr(not(test), allow(dead_code))]
@@ -61,8 +64,9 @@ gpu_struct! {
         exposure: f32,
         light_count: u32,
         mm_per_world_unit: f32,
-        _pad0: u32,
+        environment_bands: u32,
         lights: [GpuLight; MAX_LIGHTS],
+        environment_sh: [[f32; 4]; ENVIRONMENT_SH_COEFFICIENTS],
     }
 }
 
@@ -95,9 +99,10 @@ gpu_struct! {
         specular_on: u32,
         specular_roughness_alpha: f32,
         specular_ior: f32,
-        _pad2: [f32; 2],
+        environment_curvature_per_mm: [f32; 2],
         penumbra_taps: [GpuPenumbraTap; PENUMBRA_TAPS],
         subsurface_kernel: [[f32; 4]; SUBSURFACE_KERNEL_SAMPLES],
+        environment_zonal: [[f32; 4]; ENVIRONMENT_ZONAL_ROWS * ENVIRONMENT_SH_BANDS],
     }
 }
 

@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
+use cdrf_core::environment::{Environment, ShCoefficients};
 use cdrf_core::glam::Mat4;
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::light::{Light, NonLocal};
@@ -32,6 +33,7 @@ use crate::mesh::{MeshDesc, MeshId};
 use crate::offscreen::OffscreenTarget;
 use crate::readback::{ReadbackError, TextureReadback, readback_bytes};
 use crate::renderer::Renderer;
+use crate::shaders::ENVIRONMENT_SH_ORDER;
 use crate::target::{Options, TargetDesc};
 
 /// The colour format of headless renders.
@@ -325,6 +327,7 @@ pub fn render_scene(
     settings: &RenderSettings,
 ) -> Result<Rendered, HeadlessError> {
     let mut renderer = SceneRenderer::new(device, scene, assets, settings)?;
+    renderer.set_environment(scene.load_environment()?.as_ref());
     let material = renderer.add_material(&assets.material)?;
     renderer.render(material, &scene.lights, scene.non_local)
 }
@@ -342,6 +345,7 @@ pub struct SceneRenderer<'a> {
     world_from_model: Mat4,
     view: View,
     targets: OffscreenTarget,
+    environment: Option<ShCoefficients>,
 }
 
 impl<'a> SceneRenderer<'a> {
@@ -398,6 +402,7 @@ impl<'a> SceneRenderer<'a> {
             world_from_model,
             view: View::from_camera(camera, near, far),
             targets,
+            environment: None,
         })
     }
 
@@ -428,6 +433,12 @@ impl<'a> SceneRenderer<'a> {
             self.set_specular(id, self.scene.specular)?;
         }
         Ok(id)
+    }
+
+    /// Lights the next renders with an environment (its SH projected here, at
+    /// [`ENVIRONMENT_SH_ORDER`]), or without one. [`render_scene`] sets the scene's.
+    pub fn set_environment(&mut self, environment: Option<&Environment>) {
+        self.environment = environment.map(|e| e.project_sh(ENVIRONMENT_SH_ORDER));
     }
 
     /// Puts a specular layer on a material or takes it off
@@ -465,6 +476,8 @@ impl<'a> SceneRenderer<'a> {
             material,
             world_from_model: self.world_from_model,
         }];
+        // (A copy: frame_commands borrows self mutably.)
+        let environment = self.environment.clone();
         let frame = FrameDesc {
             view: self.view,
             lights,
@@ -472,6 +485,7 @@ impl<'a> SceneRenderer<'a> {
             draws: &draws,
             non_local,
             mm_per_world_unit: self.scene.mesh.mm_per_unit,
+            environment: environment.as_ref(),
         };
         let mut commands = self.frame_commands(&frame)?;
         let mut encoder = device

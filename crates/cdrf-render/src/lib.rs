@@ -46,7 +46,7 @@
 //! let draws = [Draw { mesh, material, world_from_model: Mat4::IDENTITY }];
 //! let frame = FrameDesc {
 //!     view, lights: &lights, exposure: 1.0, draws: &draws,
-//!     non_local: NonLocal::OFF, mm_per_world_unit: 1.0,
+//!     non_local: NonLocal::OFF, mm_per_world_unit: 1.0, environment: None,
 //! };
 //! // The shadow pass's commands (none here: the non-local terms are off).
 //! let shadow_pass = renderer.prepare(device, queue, &frame)?;
@@ -126,6 +126,7 @@ mod renderer;
 pub mod shaders;
 mod target;
 
+pub use cdrf_core::environment::{Environment, ShCoefficients};
 pub use cdrf_core::light::{DirectionalLight, Incidence, Light, NonLocal, PointLight, SpotLight};
 pub use cdrf_core::specular::SpecularLayer;
 pub use error::{MaterialError, MeshUploadError, PrepareError, TargetError};
@@ -134,7 +135,7 @@ pub use material::{MaterialDesc, MaterialId};
 pub use mesh::{MeshDesc, MeshId};
 pub use offscreen::OffscreenTarget;
 pub use renderer::Renderer;
-pub use shaders::{MAX_LIGHTS, MAX_SHADOW_LIGHTS};
+pub use shaders::{ENVIRONMENT_SH_ORDER, MAX_LIGHTS, MAX_SHADOW_LIGHTS};
 pub use target::{GaussianEvaluation, LutFiltering, Options, TargetDesc};
 /// The wgpu this crate is built against (use it to avoid version mismatches).
 pub use wgpu;

@@ -1,6 +1,7 @@
 //! Materials on the GPU: the shading model, its tables as textures and its parameters.
 
 use cdrf_core::diffusion::FarField;
+use cdrf_core::environment::ZonalTable;
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::glam::Vec3;
 use cdrf_core::specular::SpecularLayer;
@@ -10,7 +11,10 @@ use wgpu::util::DeviceExt;
 use crate::error::MaterialError;
 use crate::gpu_data::rgba16f_texels;
 use crate::gpu_types::{GpuMaterial, GpuPenumbraTap, uniform_layout_entry};
-use crate::shaders::{Model, PENUMBRA_TAPS, SUBSURFACE_KERNEL_SAMPLES};
+use crate::shaders::{
+    ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_ORDER, ENVIRONMENT_ZONAL_ROWS, Model, PENUMBRA_TAPS,
+    SUBSURFACE_KERNEL_SAMPLES,
+};
 use crate::target::{GaussianEvaluation, Options};
 
 /// A material uploaded with [`Renderer::create_material`](crate::Renderer::create_material).
@@ -43,6 +47,33 @@ pub enum MaterialDesc<'a> {
         /// κ at the colour map's ends, mm⁻¹.
         range_per_mm: [f32; 2],
     },
+}
+
+/// The material's zonal coefficients a_l(κ) of the environment light (`None`: the curvature
+/// view), [`ENVIRONMENT_ZONAL_ROWS`] rows over its table's curvature axis (Lambert: one row).
+fn environment_zonal_table(desc: &MaterialDesc<'_>, options: &Options) -> Option<ZonalTable> {
+    let rows = |min_per_mm: f32, max_per_mm: f32| CurvatureAxis {
+        min_per_mm,
+        max_per_mm,
+        count: ENVIRONMENT_ZONAL_ROWS,
+    };
+    Some(match *desc {
+        MaterialDesc::Measured { lut } => {
+            let axis = lut.curvature_axis();
+            ZonalTable::tabulate(
+                lut,
+                rows(axis.min_per_mm, axis.max_per_mm),
+                ENVIRONMENT_SH_ORDER,
+            )
+        }
+        MaterialDesc::Gaussian { model, .. } => ZonalTable::tabulate(
+            model,
+            rows(0.0, options.gaussian_lut_max_curvature_per_mm),
+            ENVIRONMENT_SH_ORDER,
+        ),
+        MaterialDesc::Lambert { albedo } => ZonalTable::lambert(albedo, ENVIRONMENT_SH_ORDER),
+        MaterialDesc::Curvature { .. } => return None,
+    })
 }
 
 /// The albedo a table's flattest row implies: `∫₀^π f(κ_min, θ) dθ`. A CDRF blurs `cos⁺θ`
@@ -313,6 +344,20 @@ impl MaterialFactory {
             ),
         };
 
+        if let Some(table) = environment_zonal_table(desc, options) {
+            let rows = &table.curvatures_per_mm;
+            uniforms.environment_curvature_per_mm = [rows[0], rows[rows.len() - 1]];
+            for (row, slots) in uniforms
+                .environment_zonal
+                .chunks_exact_mut(ENVIRONMENT_SH_BANDS)
+                .enumerate()
+            {
+                let source = table.row(row.min(table.row_count() - 1));
+                for (slot, a) in slots.iter_mut().zip(source) {
+                    *slot = [a[0], a[1], a[2], 0.0];
+                }
+            }
+        }
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("cdrf material uniforms"),
             contents: bytemuck::bytes_of(&uniforms),

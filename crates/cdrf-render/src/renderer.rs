@@ -2,6 +2,7 @@
 
 use std::collections::HashMap;
 
+use cdrf_core::environment::sh_basis_factors;
 use cdrf_core::glam::{Mat3, Mat4, Vec3};
 use cdrf_core::light::{Light, NonLocal};
 use cdrf_core::specular::SpecularLayer;
@@ -13,7 +14,9 @@ use crate::material::{GpuMaterialEntry, MaterialDesc, MaterialFactory, MaterialI
 use crate::mesh::{GpuMesh, MeshDesc, MeshId};
 use crate::non_local::{NonLocalPass, ShadowCaster, SurfelBindings};
 use crate::pipelines::Pipelines;
-use crate::shaders::{GPU_LIGHT_DIRECTIONAL, GPU_LIGHT_POINT, GPU_LIGHT_SPOT, MAX_LIGHTS, Model};
+use crate::shaders::{
+    ENVIRONMENT_SH_ORDER, GPU_LIGHT_DIRECTIONAL, GPU_LIGHT_POINT, GPU_LIGHT_SPOT, MAX_LIGHTS, Model,
+};
 use crate::target::{Options, TargetDesc};
 
 /// A draw of the last `prepare`: what to bind.
@@ -284,6 +287,7 @@ impl Renderer {
     ///     // Cast shadows and transmission: prepare returns the shadow pass.
     ///     non_local: NonLocal { shadows: true, transmission: true, ..NonLocal::OFF },
     ///     mm_per_world_unit: 1.0,
+    ///     environment: None,
     /// };
     /// let shadow_pass = renderer.prepare(device, queue, &frame)?;
     /// assert_eq!(shadow_pass.len(), 1);
@@ -519,6 +523,26 @@ fn frame_uniforms(frame: &FrameDesc<'_>) -> Result<GpuFrame, PrepareError> {
     }
     uniforms.to_camera = to_camera;
     uniforms.camera_is_point = u32::from(is_point);
+    if let Some(sh) = frame.environment {
+        if sh.coefficients.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(PrepareError::BadEnvironment);
+        }
+        let bands = (sh.order() + 1).min(ENVIRONMENT_SH_ORDER + 1);
+        let factors = sh_basis_factors(bands - 1);
+        for ((slot, c), factor) in uniforms
+            .environment_sh
+            .iter_mut()
+            .zip(&sh.coefficients)
+            .zip(&factors)
+        {
+            *slot = [c[0] * factor, c[1] * factor, c[2] * factor, 0.0];
+        }
+        uniforms.environment_bands = if sh.coefficients.is_empty() {
+            0
+        } else {
+            bands as u32
+        };
+    }
     Ok(uniforms)
 }
 

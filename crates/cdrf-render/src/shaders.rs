@@ -20,6 +20,16 @@ pub(crate) const PENUMBRA_TAPS: usize = 32;
 /// (fine where R_far changes fastest).
 pub(crate) const SUBSURFACE_KERNEL_SAMPLES: usize = 128;
 
+/// The spherical-harmonics order of the environment light: bands 0…4, 25 coefficients. Order 2
+/// (the classic irradiance map's 9) misses up to 20 % of the brightest radiance under a sun for
+/// the measured table, whose rows are flatter than cos θ near the normal; order 4 keeps it
+/// under 4 % (`crates/cdrf-core/tests/environment.rs`).
+pub const ENVIRONMENT_SH_ORDER: usize = 4;
+pub(crate) const ENVIRONMENT_SH_BANDS: usize = ENVIRONMENT_SH_ORDER + 1;
+pub(crate) const ENVIRONMENT_SH_COEFFICIENTS: usize = ENVIRONMENT_SH_BANDS * ENVIRONMENT_SH_BANDS;
+/// Rows of a material's zonal table a_l(κ), uniform in κ over its table's curvature axis.
+pub(crate) const ENVIRONMENT_ZONAL_ROWS: usize = 64;
+
 /// `Light.kind` in the WGSL.
 pub(crate) const GPU_LIGHT_DIRECTIONAL: u32 = 0;
 pub(crate) const GPU_LIGHT_POINT: u32 = 1;
@@ -58,6 +68,9 @@ pub fn wgsl_constants() -> String {
         ("MAX_SHADOW_LIGHTS", MAX_SHADOW_LIGHTS),
         ("PENUMBRA_TAPS", PENUMBRA_TAPS),
         ("SUBSURFACE_KERNEL_SAMPLES", SUBSURFACE_KERNEL_SAMPLES),
+        ("ENVIRONMENT_SH_BANDS", ENVIRONMENT_SH_BANDS),
+        ("ENVIRONMENT_SH_COEFFICIENTS", ENVIRONMENT_SH_COEFFICIENTS),
+        ("ENVIRONMENT_ZONAL_ROWS", ENVIRONMENT_ZONAL_ROWS),
     ] {
         wgsl.push_str(&format!("const {name}: u32 = {value}u;\n"));
     }

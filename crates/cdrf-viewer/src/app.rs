@@ -4,13 +4,17 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use cdrf_core::environment::{Environment, EnvironmentRadiance, ShCoefficients};
 use cdrf_core::glam::{Mat3, Mat4, Vec2, Vec3};
-use cdrf_core::light::{DirectionalLight, NonLocal};
+use cdrf_core::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
+use cdrf_core::specular::{DEFAULT_IOR, DEFAULT_ROUGHNESS_ALPHA, SpecularLayer};
 use cdrf_core::{Cdrf, Filter};
-use cdrf_render::{MaterialDesc, MaterialId, MeshDesc, MeshId};
+use cdrf_render::{ENVIRONMENT_SH_ORDER, MaterialDesc, MaterialId, MeshDesc, MeshId};
 use egui::{Color32, RichText};
 
-use crate::assets::{Asset, LoadedGaussian, LoadedLut, LoadedMesh, StartupFiles, load_fit_folder};
+use crate::assets::{
+    Asset, LoadedEnvironment, LoadedGaussian, LoadedLut, LoadedMesh, StartupFiles, load_fit_folder,
+};
 use crate::camera::OrbitCamera;
 use crate::gpu::{Layout, ViewCallback, ViewerGpu, slot_size_pixels};
 use crate::panels;
@@ -37,6 +41,32 @@ impl Model {
             Model::Measured => "measured CDRF",
             Model::Gaussian => "Gaussian CDRF",
             Model::Lambert => "Lambert",
+        }
+    }
+}
+
+/// The kind of light the light controls place (at the direction they set).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightKind {
+    /// From infinitely far: the photographs' light.
+    Directional,
+    /// A lamp at [`Settings::light_distance_mm`] from the origin, as bright there as the
+    /// directional light (intensity = E · d²).
+    Point,
+    /// That lamp with a cone aimed at the origin (inner 15°, outer 25°).
+    Spot,
+}
+
+impl LightKind {
+    /// All kinds, in menu order.
+    pub const ALL: [LightKind; 3] = [LightKind::Directional, LightKind::Point, LightKind::Spot];
+
+    /// The name shown in the UI.
+    pub fn label(self) -> &'static str {
+        match self {
+            LightKind::Directional => "directional",
+            LightKind::Point => "point",
+            LightKind::Spot => "spot",
         }
     }
 }
@@ -89,6 +119,22 @@ pub struct Settings {
     pub show_timings: bool,
     /// Cast shadows and transmission (both models).
     pub non_local: NonLocal,
+    /// What kind of light the light controls place.
+    pub light_kind: LightKind,
+    /// Point and spot lights: distance from the origin, mm.
+    pub light_distance_mm: f32,
+    /// The first-surface reflection on every model (a rough dielectric boundary).
+    pub specular: bool,
+    /// Its Beckmann α.
+    pub specular_roughness: f32,
+    /// Its relative index of refraction.
+    pub ior: f32,
+    /// A uniform sky's radiance (0: none), used when no environment map is loaded.
+    pub sky_radiance: f32,
+    /// The environment map's intensity (0: off).
+    pub environment_intensity: f32,
+    /// The environment map's rotation about +y, degrees.
+    pub environment_rotate_deg: f32,
 }
 
 impl Settings {
@@ -97,6 +143,42 @@ impl Settings {
         let (sin_az, cos_az) = self.light_azimuth_deg.to_radians().sin_cos();
         let (sin_el, cos_el) = self.light_elevation_deg.to_radians().sin_cos();
         Vec3::new(-cos_az * cos_el, sin_el, sin_az * cos_el)
+    }
+
+    /// The light the controls describe, in world mm (the object about the origin).
+    pub fn light(&self) -> Light {
+        let to_light = self.to_light();
+        let irradiance = [self.irradiance; 3];
+        let d = self.light_distance_mm;
+        let position = to_light * d;
+        let intensity = irradiance.map(|e| e * d * d);
+        match self.light_kind {
+            LightKind::Directional => DirectionalLight {
+                to_light,
+                irradiance,
+            }
+            .into(),
+            LightKind::Point => PointLight {
+                position,
+                intensity,
+            }
+            .into(),
+            LightKind::Spot => SpotLight {
+                position,
+                direction: -to_light,
+                intensity,
+                inner_angle_rad: 15f32.to_radians(),
+                outer_angle_rad: 25f32.to_radians(),
+            }
+            .into(),
+        }
+    }
+
+    /// The specular layer the controls describe (`None`: off or out of range).
+    pub fn specular_layer(&self) -> Option<SpecularLayer> {
+        self.specular
+            .then(|| SpecularLayer::new(self.specular_roughness, self.ior).ok())
+            .flatten()
     }
 
     /// Sets azimuth and elevation from a direction towards the light.
@@ -163,6 +245,7 @@ pub struct ViewerApp {
     mesh: Option<LoadedMesh>,
     lut: Option<LoadedLut>,
     gaussian: Option<LoadedGaussian>,
+    environment: Option<LoadedEnvironment>,
     ids: GpuIds,
     hover: Option<Hover>,
     error: Option<String>,
@@ -181,6 +264,19 @@ pub struct ViewerApp {
 struct Applied {
     sigma_mm: [f32; 3],
     mm_per_unit: f32,
+    /// The specular layer put on which materials (measured, Gaussian, Lambert).
+    specular: Option<(Option<SpecularLayer>, [Option<MaterialId>; 3])>,
+    /// The environment's SH and what it was projected from (intensity, rotation, sky, map).
+    environment: Option<(EnvironmentKey, Option<ShCoefficients>)>,
+}
+
+/// What the environment's SH depend on.
+#[derive(Clone, Debug, PartialEq)]
+struct EnvironmentKey {
+    intensity: f32,
+    rotate_deg: f32,
+    sky_radiance: f32,
+    map: Option<PathBuf>,
 }
 
 /// Background of the 3D view, linear RGB.
@@ -208,6 +304,14 @@ impl ViewerApp {
             continuous: false,
             show_timings: true,
             non_local: files.non_local,
+            light_kind: LightKind::Directional,
+            light_distance_mm: 150.0,
+            specular: true,
+            specular_roughness: DEFAULT_ROUGHNESS_ALPHA,
+            ior: DEFAULT_IOR,
+            sky_radiance: 0.0,
+            environment_intensity: 1.0,
+            environment_rotate_deg: 0.0,
         };
         settings.set_to_light(files.to_light);
         let mut app = Self {
@@ -217,6 +321,7 @@ impl ViewerApp {
             mesh: None,
             lut: None,
             gaussian: None,
+            environment: None,
             ids: GpuIds::default(),
             hover: None,
             error: None,
@@ -281,6 +386,15 @@ impl ViewerApp {
             Asset::Mesh(mesh) => self.set_mesh(mesh, None),
             Asset::Lut(lut) => self.set_lut(lut),
             Asset::Gaussian(gaussian) => self.set_gaussian(gaussian),
+            Asset::Environment(environment) => {
+                self.status = Some(format!(
+                    "{}: environment map, {} × {}",
+                    file_name(&environment.path),
+                    environment.map.width(),
+                    environment.map.height()
+                ));
+                self.environment = Some(environment);
+            }
             Asset::Fit { lut, gaussian } => {
                 if let Some(lut) = lut {
                     self.set_lut(lut);
@@ -600,12 +714,61 @@ impl ViewerApp {
                 .text("elevation")
                 .suffix("°"),
         );
-        ui.add(egui::Slider::new(&mut self.settings.irradiance, 0.0..=10.0).text("irradiance E"));
+        ui.horizontal(|ui| {
+            for kind in LightKind::ALL {
+                ui.selectable_value(&mut self.settings.light_kind, kind, kind.label());
+            }
+        });
+        ui.add(egui::Slider::new(&mut self.settings.irradiance, 0.0..=10.0).text("irradiance E"))
+            .on_hover_text("Directional: on a surface facing it. Point and spot: facing it at the origin (intensity = E · d²)");
+        if self.settings.light_kind != LightKind::Directional {
+            ui.add(
+                egui::Slider::new(&mut self.settings.light_distance_mm, 20.0..=2000.0)
+                    .logarithmic(true)
+                    .text("distance mm"),
+            );
+        }
         ui.add(
             egui::Slider::new(&mut self.settings.exposure, 0.1..=20.0)
                 .logarithmic(true)
                 .text("exposure"),
         );
+        ui.separator();
+
+        ui.heading("Surface and sky");
+        ui.checkbox(&mut self.settings.specular, "specular layer")
+            .on_hover_text("First-surface reflection of a rough dielectric boundary (Beckmann, dielectric Fresnel) on every model; the light under it is scaled by what the boundary lets through. Off: the cross-polarised look the tables were measured in");
+        if self.settings.specular {
+            ui.add(
+                egui::Slider::new(&mut self.settings.specular_roughness, 0.01..=1.0)
+                    .text("roughness α"),
+            );
+            ui.add(egui::Slider::new(&mut self.settings.ior, 1.01..=3.0).text("IOR"));
+        }
+        match &self.environment {
+            Some(environment) => {
+                ui.label(format!("environment: {}", file_name(&environment.path)));
+                ui.add(
+                    egui::Slider::new(&mut self.settings.environment_intensity, 0.0..=10.0)
+                        .text("intensity"),
+                );
+                ui.add(
+                    egui::Slider::new(&mut self.settings.environment_rotate_deg, -180.0..=180.0)
+                        .text("rotate")
+                        .suffix("°"),
+                );
+                if ui.button("remove environment").clicked() {
+                    self.environment = None;
+                }
+            }
+            None => {
+                ui.add(
+                    egui::Slider::new(&mut self.settings.sky_radiance, 0.0..=1.0)
+                        .text("uniform sky L"),
+                )
+                .on_hover_text("Radiance of a uniform sky; drop an equirectangular OpenEXR for an environment map");
+            }
+        }
         ui.separator();
 
         ui.heading("Gaussian CDRF");
@@ -666,6 +829,50 @@ impl ViewerApp {
             self.refresh_curvature_material();
         }
         self.applied.mm_per_unit = scale;
+
+        let layer = self.settings.specular_layer();
+        let ids = [self.ids.measured, self.ids.gaussian, self.ids.lambert];
+        if self.applied.specular != Some((layer, ids)) {
+            let queue = self.render_state.queue.clone();
+            let failed = self.with_gpu(|gpu| {
+                ids.into_iter()
+                    .flatten()
+                    .find_map(|id| gpu.renderer.set_material_specular(&queue, id, layer).err())
+            });
+            if let Some(Some(error)) = failed {
+                self.error = Some(format!("specular layer: {error}"));
+            }
+            self.applied.specular = Some((layer, ids));
+        }
+
+        let key = EnvironmentKey {
+            intensity: self.settings.environment_intensity,
+            rotate_deg: self.settings.environment_rotate_deg,
+            sky_radiance: self.settings.sky_radiance,
+            map: self.environment.as_ref().map(|e| e.path.clone()),
+        };
+        if self.applied.environment.as_ref().map(|(k, _)| k) != Some(&key) {
+            let environment = match &self.environment {
+                Some(loaded) if key.intensity > 0.0 => Environment::new(
+                    EnvironmentRadiance::Map(loaded.map.clone()),
+                    key.intensity,
+                    key.rotate_deg,
+                )
+                .map(Some),
+                None if key.sky_radiance > 0.0 => {
+                    Environment::uniform([key.sky_radiance; 3]).map(Some)
+                }
+                _ => Ok(None),
+            };
+            let sh = match environment {
+                Ok(environment) => environment.map(|e| e.project_sh(ENVIRONMENT_SH_ORDER)),
+                Err(error) => {
+                    self.error = Some(format!("environment: {error}"));
+                    None
+                }
+            };
+            self.applied.environment = Some((key, sh));
+        }
     }
 
     fn file_buttons(&mut self, ui: &mut egui::Ui) {
@@ -688,6 +895,11 @@ impl ViewerApp {
             }
             if ui.button("fit folder…").clicked() {
                 picked = rfd::FileDialog::new().pick_folder();
+            }
+            if ui.button("environment…").clicked() {
+                picked = rfd::FileDialog::new()
+                    .add_filter("equirectangular environment map", &["exr"])
+                    .pick_file();
             }
         });
         if let Some(path) = picked {
@@ -886,13 +1098,7 @@ impl ViewerApp {
         };
         let callback = ViewCallback {
             view,
-            lights: vec![
-                DirectionalLight {
-                    to_light: self.settings.to_light(),
-                    irradiance: [self.settings.irradiance; 3],
-                }
-                .into(),
-            ],
+            lights: vec![self.settings.light()],
             exposure: self.settings.exposure,
             mesh: self.ids.mesh,
             world_from_model: self.world_from_model(),
@@ -903,6 +1109,11 @@ impl ViewerApp {
             size_points,
             background: BACKGROUND,
             non_local: self.settings.non_local,
+            environment: self
+                .applied
+                .environment
+                .as_ref()
+                .and_then(|(_, sh)| sh.clone()),
         };
         ui.painter()
             .add(egui_wgpu::Callback::new_paint_callback(rect, callback));

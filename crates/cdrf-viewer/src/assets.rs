@@ -1,8 +1,10 @@
-//! What the viewer loads: meshes (with curvature), measured LUTs, Gaussian parameters and
-//! cdrf-fit output folders. Every failure is an [`AssetError`] naming the file.
+//! What the viewer loads: meshes (with curvature), measured LUTs, Gaussian parameters,
+//! cdrf-fit output folders and environment maps (an OpenEXR that is not a LUT). Every failure
+//! is an [`AssetError`] naming the file.
 
 use std::path::{Path, PathBuf};
 
+use cdrf_core::environment::{EnvironmentError, EquirectMap};
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::gaussian_file::GaussianFileError;
 use cdrf_core::glam::Vec3;
@@ -38,6 +40,16 @@ pub enum AssetError {
     /// The LUT file could not be read.
     #[error(transparent)]
     Lut(#[from] LutFileError),
+    /// An OpenEXR that is not a cdrf LUT, and not a usable environment map either.
+    #[error("{}: not a cdrf LUT ({lut}), and not an environment map: {environment}", path.display())]
+    NeitherLutNorEnvironment {
+        /// The file.
+        path: PathBuf,
+        /// Why it is not a LUT.
+        lut: Box<LutFileError>,
+        /// Why it is not an environment map.
+        environment: Box<EnvironmentError>,
+    },
     /// The Gaussian parameters could not be read.
     #[error(transparent)]
     Gaussian(#[from] GaussianFileError),
@@ -208,6 +220,15 @@ impl LoadedLut {
     }
 }
 
+/// An environment map and its file.
+#[derive(Clone, Debug)]
+pub struct LoadedEnvironment {
+    /// Where it came from.
+    pub path: PathBuf,
+    /// The map.
+    pub map: EquirectMap,
+}
+
 /// Gaussian CDRF parameters, their view correction, and their file.
 #[derive(Clone, Debug)]
 pub struct LoadedGaussian {
@@ -255,6 +276,8 @@ pub enum Asset {
     Lut(LoadedLut),
     /// A `gaussian.toml`.
     Gaussian(LoadedGaussian),
+    /// An equirectangular environment map (linear radiance).
+    Environment(LoadedEnvironment),
     /// A cdrf-fit output folder: its LUT and/or Gaussian parameters.
     Fit {
         /// `measured.exr`, when present.
@@ -279,7 +302,25 @@ impl Asset {
             .map(str::to_ascii_lowercase);
         match extension.as_deref() {
             Some("obj" | "gltf" | "glb") => LoadedMesh::load(path).map(Asset::Mesh),
-            Some("exr") => LoadedLut::load(path).map(Asset::Lut),
+            // A LUT, or else an environment map.
+            Some("exr") => match read_lut(path) {
+                Ok(lut) => Ok(Asset::Lut(LoadedLut {
+                    path: path.to_owned(),
+                    lut,
+                })),
+                Err(lut @ LutFileError::NotACdrfLut { .. }) => match EquirectMap::read_exr(path) {
+                    Ok(map) => Ok(Asset::Environment(LoadedEnvironment {
+                        path: path.to_owned(),
+                        map,
+                    })),
+                    Err(environment) => Err(AssetError::NeitherLutNorEnvironment {
+                        path: path.to_owned(),
+                        lut: Box::new(lut),
+                        environment: Box::new(environment),
+                    }),
+                },
+                Err(error) => Err(error.into()),
+            },
             Some("toml") => LoadedGaussian::load(path).map(Asset::Gaussian),
             _ => Err(AssetError::UnknownKind {
                 path: path.to_owned(),

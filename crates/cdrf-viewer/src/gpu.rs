@@ -9,6 +9,7 @@
 //! depth buffer and MSAA independent of the host's pass, and makes the difference view a
 //! texture lookup.
 
+use cdrf_core::environment::ShCoefficients;
 use cdrf_core::glam::{Mat4, Vec2};
 use cdrf_core::light::{Light, NonLocal};
 use cdrf_render::{
@@ -259,6 +260,8 @@ pub struct ViewCallback {
     pub background: [f32; 3],
     /// Cast shadows and transmission (world units are mm here).
     pub non_local: NonLocal,
+    /// The environment light's SH (`None`: none).
+    pub environment: Option<ShCoefficients>,
 }
 
 impl CallbackTrait for ViewCallback {
@@ -303,6 +306,7 @@ impl CallbackTrait for ViewCallback {
             draws: &draws,
             non_local: self.non_local,
             mm_per_world_unit: 1.0,
+            environment: self.environment.as_ref(),
         };
         let prepared = gpu.renderer.prepare(device, queue, &frame);
         gpu.last_error = prepared.as_ref().err().map(ToString::to_string);
