@@ -356,7 +356,7 @@ fn cast_shadow_and_transmission_toggles() {
 }
 
 /// An equirectangular sky written to `path`: light from above and from +x, dark below.
-fn write_sky(path: &std::path::Path) {
+fn write_sky(path: &Path) {
     let (width, height) = (64u32, 32u32);
     let mut image = cdrf_core::image_file::RgbaImage::new(width, height);
     for row in 0..height {
