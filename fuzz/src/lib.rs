@@ -42,7 +42,7 @@ pub enum Target {
     Photo,
     /// Wavefront OBJ: [`Mesh::load`].
     Obj,
-    /// glTF (JSON `.gltf` or binary `.glb`): [`Mesh::load`].
+    /// glTF (JSON `.gltf` or binary `.glb`): [`Mesh::load`] and [`Mesh::load_with_surfaces`].
     Gltf,
 }
 
@@ -149,7 +149,14 @@ pub fn run(target: Target, input: &[u8], work: &Path) -> Result<(), String> {
         Target::Photo => cdrf_fit::image_io::load_linear_image(&path, None, 1.0)
             .map(drop)
             .map_err(|e| shown(&e)),
-        Target::Obj | Target::Gltf => Mesh::load(&path).map(drop).map_err(|e| shown(&e)),
+        Target::Obj => Mesh::load(&path).map(drop).map_err(|e| shown(&e)),
+        // Geometry alone, then with materials, decoded textures and tangents.
+        Target::Gltf => {
+            Mesh::load(&path).map(drop).map_err(|e| shown(&e))?;
+            Mesh::load_with_surfaces(&path)
+                .map(drop)
+                .map_err(|e| shown(&e))
+        }
     }
 }
 
@@ -238,6 +245,7 @@ pub fn seeds(target: Target) -> Vec<(String, Vec<u8>)> {
             vec![
                 ("generated/icosphere.glb".to_owned(), glb),
                 ("generated/icosphere.gltf".to_owned(), gltf),
+                file("tests/fixtures/textured.glb"),
             ]
         }
     }

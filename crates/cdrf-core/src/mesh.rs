@@ -1,5 +1,7 @@
 //! Triangle meshes: one [`Mesh`] type loaded from OBJ or glTF 2.0 / GLB, checked and repaired,
 //! welded for topology, and written back as GLB with a per-vertex curvature attribute.
+//! [`Mesh::load_with_surfaces`] also returns the file's materials, textures, primitives and
+//! tangents ([`surface`]).
 //!
 //! ```
 //! use cdrf_core::mesh::Mesh;
@@ -38,10 +40,12 @@
 mod adjacency;
 mod export;
 mod gltf_load;
+mod gltf_material;
 mod load;
 mod obj;
 mod repair;
 mod shapes;
+pub mod surface;
 mod weld;
 
 use glam::{Vec2, Vec3};
@@ -53,6 +57,9 @@ pub use export::{
 };
 pub use load::LoadError;
 pub use repair::{MeshError, RepairReport};
+pub use surface::{
+    MeshSurfaces, NormalTexture, SurfaceMaterial, SurfacePrimitive, TextureImage, TextureWrap,
+};
 pub use weld::Welded;
 
 /// An indexed triangle mesh, ready to render: one normal (and optionally one UV) per vertex.

@@ -2,15 +2,16 @@
 //!
 //! The `gltf` crate parses and validates the JSON; buffers and accessors are read here, with
 //! every offset, stride and length checked, so a malformed file is an error and never a panic
-//! (the crate's own readers assume well-formed accessors). No image is ever decoded.
+//! (the crate's own readers assume well-formed accessors). [`load`] never decodes an image;
+//! [`load_with_surfaces`] also reads materials, textures (`gltf_material`) and tangents.
 
 use std::path::Path;
 
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
-use super::{LoadError, MeshData};
+use super::{LoadError, MeshData, SurfaceMaterial};
 
 /// The deepest node hierarchy accepted (deeper usually means a cycle).
 const MAX_NODE_DEPTH: usize = 256;
@@ -19,8 +20,33 @@ const MAX_NODE_INSTANCES: usize = 1 << 20;
 /// The most vertices (and, separately, triangle corners / 3) after instancing: 2²⁴.
 pub const MAX_MESH_VERTICES: usize = 1 << 24;
 
+/// What [`load_with_surfaces`] reads beside the mesh data, indexed like the unchecked data.
+#[derive(Debug, Default)]
+pub(super) struct GltfSurfaces {
+    /// One tag per triangle of the data: the primitive instance it came from.
+    pub(super) primitive_of_triangle: Vec<u32>,
+    /// Per primitive instance, its index into `materials`.
+    pub(super) material_of_primitive: Vec<usize>,
+    /// The materials the primitives use, in order of first use.
+    pub(super) materials: Vec<SurfaceMaterial>,
+    /// `TANGENT` per vertex of the data (world space, handedness flipped under mirroring), when
+    /// every primitive has it.
+    pub(super) tangents: Option<Vec<Vec4>>,
+    /// What was ignored.
+    pub(super) warnings: Vec<String>,
+}
+
 /// Reads the default scene's triangle primitives into unchecked [`MeshData`].
 pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
+    read(path, false).map(|(data, _)| data)
+}
+
+/// [`load`], also reading the primitives' materials (decoding their images) and tangents.
+pub(super) fn load_with_surfaces(path: &Path) -> Result<(MeshData, GltfSurfaces), LoadError> {
+    read(path, true)
+}
+
+fn read(path: &Path, with_surfaces: bool) -> Result<(MeshData, GltfSurfaces), LoadError> {
     let data_error = |problem: String| LoadError::GltfData {
         path: path.to_owned(),
         problem,
@@ -118,6 +144,11 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
     let mut any_normals = false;
     let mut uvs: Vec<Vec2> = Vec::new();
     let mut all_uvs = true;
+    let mut tangents: Vec<Vec4> = Vec::new();
+    let mut all_tangents = with_surfaces;
+    let mut surfaces = GltfSurfaces::default();
+    // glTF material index (None: the default material) of each entry of `surfaces.materials`.
+    let mut material_sources: Vec<Option<usize>> = Vec::new();
     for (mesh, world) in &instances {
         let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
         let mirrored = world.determinant() < 0.0;
@@ -183,6 +214,39 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
                 None => all_uvs = false,
             }
 
+            match primitive.get(&gltf::Semantic::Tangents) {
+                Some(accessor) if all_tangents => {
+                    let t = read_floats(&accessor, &buffers, Dimensions::Vec4, false)
+                        .map_err(|e| data_error(format!("{label} TANGENT: {e}")))?;
+                    if t.len() != 4 * count {
+                        return Err(data_error(format!(
+                            "{label}: TANGENT has {} entries, POSITION {count}",
+                            t.len() / 4
+                        )));
+                    }
+                    let handedness = if mirrored { -1.0 } else { 1.0 };
+                    tangents.extend(t.chunks_exact(4).map(|t| {
+                        world
+                            .transform_vector3(Vec3::new(t[0], t[1], t[2]))
+                            .extend(t[3] * handedness)
+                    }));
+                }
+                Some(_) => {}
+                None => all_tangents = false,
+            }
+
+            let source = primitive.material().index();
+            let material = match material_sources.iter().position(|&m| m == source) {
+                Some(m) => m,
+                None => {
+                    material_sources.push(source);
+                    material_sources.len() - 1
+                }
+            };
+            let tag = surfaces.material_of_primitive.len() as u32;
+            surfaces.material_of_primitive.push(material);
+            let triangles_before = data.triangles.len();
+
             let indices: Vec<u32> = match primitive.indices() {
                 Some(accessor) => read_indices(&accessor, &buffers)
                     .map_err(|e| data_error(format!("{label} indices: {e}")))?,
@@ -221,11 +285,30 @@ pub(super) fn load(path: &Path) -> Result<MeshData, LoadError> {
                     .chunks_exact(3)
                     .for_each(|t| push([t[0], t[1], t[2]])),
             }
+            let added = data.triangles.len() - triangles_before;
+            surfaces
+                .primitive_of_triangle
+                .extend(std::iter::repeat_n(tag, added));
         }
     }
     data.normals = any_normals.then_some(normals);
     data.uvs = (all_uvs && !uvs.is_empty()).then_some(uvs);
-    Ok(data)
+    if with_surfaces {
+        surfaces.tangents = (all_tangents && !tangents.is_empty()).then_some(tangents);
+        let mut reader = super::gltf_material::MaterialReader::new(
+            &document,
+            &buffers,
+            base,
+            path,
+            data.uvs.is_some(),
+        );
+        surfaces.materials = material_sources
+            .iter()
+            .map(|&source| reader.read(source))
+            .collect::<Result<_, _>>()?;
+        surfaces.warnings = reader.into_warnings();
+    }
+    Ok((data, surfaces))
 }
 
 /// Rejects GLB headers the `gltf` crate would mis-handle (a declared length below the header
@@ -251,7 +334,7 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
 }
 
 /// The bytes of every buffer: the GLB chunk, a `data:` URI or a file next to the glTF file.
-fn load_buffers(
+pub(super) fn load_buffers(
     document: &gltf::Document,
     mut blob: Option<Vec<u8>>,
     base: &Path,
@@ -442,7 +525,7 @@ fn read_indices(accessor: &gltf::Accessor<'_>, buffers: &[Vec<u8>]) -> Result<Ve
 }
 
 /// Standard base64 (RFC 4648 alphabet, `=` padding optional).
-fn decode_base64(text: &str) -> Result<Vec<u8>, String> {
+pub(super) fn decode_base64(text: &str) -> Result<Vec<u8>, String> {
     let text = text.trim_end_matches('=');
     let mut out = Vec::with_capacity(text.len() * 3 / 4);
     let mut accumulator = 0u32;
@@ -473,7 +556,7 @@ fn decode_base64(text: &str) -> Result<Vec<u8>, String> {
 }
 
 /// Decodes `%XX` escapes of a relative URI; `None` if malformed or not UTF-8.
-fn percent_decode(uri: &str) -> Option<String> {
+pub(super) fn percent_decode(uri: &str) -> Option<String> {
     let bytes = uri.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-use super::{Mesh, MeshError, RepairedMesh};
+use super::{Mesh, MeshError, MeshSurfaces, RepairedMesh, surface};
 
 /// Why a mesh file could not be loaded. Every message names the file; the underlying cause,
 /// if any, is the error's [`source`](std::error::Error::source) (print the chain).
@@ -105,22 +105,115 @@ impl Mesh {
     /// unsupported glTF data, or nothing usable after repair.
     pub fn load(path: impl AsRef<Path>) -> Result<RepairedMesh, LoadError> {
         let path = path.as_ref();
-        let extension = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        let data = match extension.as_deref() {
-            Some("obj") => super::obj::load(path)?,
-            Some("gltf" | "glb") => super::gltf_load::load(path)?,
-            _ => {
-                return Err(LoadError::UnsupportedFormat {
-                    path: path.to_owned(),
-                });
-            }
+        let data = match Format::of(path)? {
+            Format::Obj => super::obj::load(path)?,
+            Format::Gltf => super::gltf_load::load(path)?,
         };
         Self::from_data(data).map_err(|source| LoadError::Unusable {
             path: path.to_owned(),
             source,
         })
+    }
+
+    /// [`Mesh::load`] with what a renderer needs to draw the mesh textured: its materials, one
+    /// primitive (draw) per glTF primitive instance, and tangents (see [`MeshSurfaces`] and
+    /// [`super::surface`] for colour spaces and conventions).
+    ///
+    /// The mesh is the one [`Mesh::load`] returns (same vertices, same triangles in the same
+    /// order: the glTF loader emits each primitive's triangles together and the repair keeps
+    /// their order, dropping a triangle from its primitive's range; a primitive left without
+    /// triangles is not listed).
+    ///
+    /// - **OBJ**: one primitive, the default material, no tangents (`mtl` files are not read).
+    /// - **glTF**: the materials the primitives use, with their textures decoded (PNG and JPEG;
+    ///   see [`MeshSurfaces::warnings`] for what is ignored); `TANGENT` when every primitive
+    ///   has it (re-orthonormalised against the final normals), otherwise MikkTSpace tangents
+    ///   when a material has a normal texture and the mesh has UVs.
+    ///
+    /// # Limits
+    /// Those of [`Mesh::load`]; every image must be at most
+    /// [`crate::input_file::MAX_IMAGE_SIDE_PX`] per side and
+    /// [`crate::input_file::MAX_IMAGE_PIXELS`] in all, read from its header before decoding.
+    ///
+    /// # Errors
+    /// Those of [`Mesh::load`], and [`LoadError::GltfData`] naming the file, the material and
+    /// the image for an image that is missing, unreadable, of another format, corrupt or too
+    /// large; [`LoadError::Gltf`] for a texture, image or sampler index out of range.
+    pub fn load_with_surfaces(
+        path: impl AsRef<Path>,
+    ) -> Result<(RepairedMesh, MeshSurfaces), LoadError> {
+        let path = path.as_ref();
+        let unusable = |source| LoadError::Unusable {
+            path: path.to_owned(),
+            source,
+        };
+        match Format::of(path)? {
+            Format::Obj => {
+                let repaired = Self::from_data(super::obj::load(path)?).map_err(unusable)?;
+                let surfaces = MeshSurfaces::single(&repaired.mesh);
+                Ok((repaired, surfaces))
+            }
+            Format::Gltf => {
+                let (data, gltf) = super::gltf_load::load_with_surfaces(path)?;
+                let (mut repaired, map) = super::repair::repair_mapped(data).map_err(unusable)?;
+                let tags: Vec<u32> = map
+                    .kept_triangles
+                    .iter()
+                    .map(|&t| gltf.primitive_of_triangle[t as usize])
+                    .collect();
+                let primitives = surface::group_primitives(
+                    &mut repaired.mesh,
+                    &tags,
+                    &gltf.material_of_primitive,
+                );
+                let mesh = &repaired.mesh;
+                let tangents = match gltf.tangents {
+                    Some(read) => {
+                        let mut tangents: Vec<_> = map
+                            .kept_vertices
+                            .iter()
+                            .map(|&v| read[v as usize])
+                            .collect();
+                        surface::orthonormalize_tangents(&mesh.normals, &mut tangents);
+                        Some(tangents)
+                    }
+                    None if gltf.materials.iter().any(|m| m.normal_texture.is_some()) => {
+                        surface::mikktspace_tangents(mesh)
+                    }
+                    None => None,
+                };
+                Ok((
+                    repaired,
+                    MeshSurfaces {
+                        materials: gltf.materials,
+                        primitives,
+                        tangents,
+                        warnings: gltf.warnings,
+                    },
+                ))
+            }
+        }
+    }
+}
+
+/// The mesh file formats, by extension.
+enum Format {
+    Obj,
+    Gltf,
+}
+
+impl Format {
+    fn of(path: &Path) -> Result<Self, LoadError> {
+        let extension = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match extension.as_deref() {
+            Some("obj") => Ok(Self::Obj),
+            Some("gltf" | "glb") => Ok(Self::Gltf),
+            _ => Err(LoadError::UnsupportedFormat {
+                path: path.to_owned(),
+            }),
+        }
     }
 }

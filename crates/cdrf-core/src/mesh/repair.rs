@@ -112,8 +112,23 @@ pub enum MeshError {
     },
 }
 
+/// Which input elements a repaired mesh kept, for carrying per-triangle and per-vertex data
+/// of the input (primitive tags, tangents) through [`repair_mapped`].
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub(super) struct RepairMap {
+    /// For each output triangle, its index in the input (increasing: order is kept).
+    pub(super) kept_triangles: Vec<u32>,
+    /// For each output vertex, its index in the input (increasing: order is kept).
+    pub(super) kept_vertices: Vec<u32>,
+}
+
 /// See [`Mesh::from_data`].
 pub(super) fn repair(data: MeshData) -> Result<RepairedMesh, MeshError> {
+    repair_mapped(data).map(|(mesh, _)| mesh)
+}
+
+/// [`repair`], also saying which input triangles and vertices survived, in order.
+pub(super) fn repair_mapped(data: MeshData) -> Result<(RepairedMesh, RepairMap), MeshError> {
     let MeshData {
         positions,
         normals,
@@ -165,11 +180,12 @@ pub(super) fn repair(data: MeshData) -> Result<RepairedMesh, MeshError> {
             Verdict::Degenerate => report.degenerate_triangles += 1,
         }
     }
-    let kept: Vec<[u32; 3]> = triangles
+    let kept_triangles: Vec<u32> = (0..triangles.len() as u32)
+        .filter(|&t| verdicts[t as usize] == Verdict::Keep)
+        .collect();
+    let kept: Vec<[u32; 3]> = kept_triangles
         .iter()
-        .zip(&verdicts)
-        .filter(|(_, v)| **v == Verdict::Keep)
-        .map(|(t, _)| *t)
+        .map(|&t| triangles[t as usize])
         .collect();
     if kept.is_empty() {
         report.unreferenced_vertices = vertex_count - report.non_finite_vertices;
@@ -278,13 +294,20 @@ pub(super) fn repair(data: MeshData) -> Result<RepairedMesh, MeshError> {
         }
     };
 
-    Ok(RepairedMesh {
-        mesh: Mesh {
-            positions,
-            normals,
-            uvs,
-            triangles,
+    let map = RepairMap {
+        kept_triangles,
+        kept_vertices: old_of_new.iter().map(|&i| i as u32).collect(),
+    };
+    Ok((
+        RepairedMesh {
+            mesh: Mesh {
+                positions,
+                normals,
+                uvs,
+                triangles,
+            },
+            report,
         },
-        report,
-    })
+        map,
+    ))
 }
