@@ -353,28 +353,10 @@ pub(super) fn load_buffers(
                     "buffer {index} refers to the GLB binary chunk, which is missing"
                 ))
             })?,
-            gltf::buffer::Source::Uri(uri) => {
-                if let Some(rest) = uri.strip_prefix("data:") {
-                    let (_, payload) = rest.split_once(";base64,").ok_or_else(|| {
-                        data_error(format!("buffer {index}: data URI is not base64"))
-                    })?;
-                    decode_base64(payload)
-                        .map_err(|e| data_error(format!("buffer {index}: data URI: {e}")))?
-                } else if uri.contains(':') {
-                    return Err(data_error(format!(
-                        "buffer {index}: unsupported URI scheme in {uri:?} (only data: URIs \
-                         and relative paths)"
-                    )));
-                } else {
-                    let relative = percent_decode(uri).ok_or_else(|| {
-                        data_error(format!("buffer {index}: malformed URI {uri:?}"))
-                    })?;
-                    let file = crate::input_file::resolve_inside(base, &relative)
-                        .map_err(|e| data_error(format!("buffer {index}: {e}")))?;
-                    crate::input_file::read_regular(&file, crate::input_file::MAX_INPUT_FILE_BYTES)
-                        .map_err(|source| LoadError::Io { path: file, source })?
-                }
-            }
+            gltf::buffer::Source::Uri(uri) => uri_bytes(uri, base).map_err(|e| match e {
+                UriError::Invalid(problem) => data_error(format!("buffer {index}: {problem}")),
+                UriError::Read { file, source } => LoadError::Io { path: file, source },
+            })?,
         };
         if data.len() < buffer.length() {
             return Err(data_error(format!(
@@ -386,6 +368,63 @@ pub(super) fn load_buffers(
         buffers.push(data);
     }
     Ok(buffers)
+}
+
+/// Why a glTF `uri` gave no bytes.
+pub(super) enum UriError {
+    /// Not a base64 `data:` URI nor a relative path inside the folder.
+    Invalid(String),
+    /// The file it names could not be read.
+    Read {
+        /// The file.
+        file: std::path::PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+}
+
+/// The bytes a buffer's or an image's `uri` names: a base64 `data:` URI, or a percent-encoded
+/// path relative to `base` that stays inside it (read as any input file, within its limits).
+pub(super) fn uri_bytes(uri: &str, base: &Path) -> Result<Vec<u8>, UriError> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let (_, payload) = rest
+            .split_once(";base64,")
+            .ok_or_else(|| UriError::Invalid("data URI is not base64".to_owned()))?;
+        decode_base64(payload).map_err(|e| UriError::Invalid(format!("data URI: {e}")))
+    } else if uri.contains(':') {
+        Err(UriError::Invalid(format!(
+            "unsupported URI scheme in {uri:?} (only data: URIs and relative paths)"
+        )))
+    } else {
+        let relative = percent_decode(uri)
+            .ok_or_else(|| UriError::Invalid(format!("malformed URI {uri:?}")))?;
+        let file = crate::input_file::resolve_inside(base, &relative).map_err(UriError::Invalid)?;
+        crate::input_file::read_regular(&file, crate::input_file::MAX_INPUT_FILE_BYTES)
+            .map_err(|source| UriError::Read { file, source })
+    }
+}
+
+/// The bytes of a buffer view, checked against its buffer.
+pub(super) fn view_bytes<'a>(
+    view: &gltf::buffer::View<'_>,
+    buffers: &'a [Vec<u8>],
+) -> Result<&'a [u8], String> {
+    let buffer = buffers
+        .get(view.buffer().index())
+        .ok_or_else(|| format!("buffer view {} has no buffer", view.index()))?;
+    view.offset()
+        .checked_add(view.length())
+        .and_then(|end| buffer.get(view.offset()..end))
+        .ok_or_else(|| {
+            format!(
+                "buffer view {} ({} bytes at {}) exceeds buffer {} ({} bytes)",
+                view.index(),
+                view.length(),
+                view.offset(),
+                view.buffer().index(),
+                buffer.len()
+            )
+        })
 }
 
 /// Where an accessor's elements lie, checked against its buffer.
@@ -412,23 +451,7 @@ fn layout<'a>(accessor: &gltf::Accessor<'_>, buffers: &'a [Vec<u8>]) -> Result<L
     let view = accessor
         .view()
         .ok_or_else(|| format!("accessor {index} has no buffer view"))?;
-    let buffer = buffers
-        .get(view.buffer().index())
-        .ok_or_else(|| format!("buffer view {} has no buffer", view.index()))?;
-    let view_data = view
-        .offset()
-        .checked_add(view.length())
-        .and_then(|end| buffer.get(view.offset()..end))
-        .ok_or_else(|| {
-            format!(
-                "buffer view {} ({} bytes at {}) exceeds buffer {} ({} bytes)",
-                view.index(),
-                view.length(),
-                view.offset(),
-                view.buffer().index(),
-                buffer.len()
-            )
-        })?;
+    let view_data = view_bytes(&view, buffers)?;
     let count = accessor.count();
     let element_size = accessor.size();
     let stride = view.stride().unwrap_or(element_size);

@@ -13,7 +13,7 @@ use std::path::Path;
 
 use image::ImageFormat;
 
-use super::gltf_load::{decode_base64, percent_decode};
+use super::gltf_load::{UriError, uri_bytes, view_bytes};
 use super::{LoadError, NormalTexture, SurfaceMaterial, TextureImage, TextureWrap};
 
 /// glTF extensions that change how textures or materials are read and that are ignored.
@@ -183,44 +183,17 @@ impl<'a> MaterialReader<'a> {
     /// Reads and decodes one image.
     fn decode(&self, image: &gltf::Image<'_>) -> Result<TextureImage, String> {
         let (bytes, mime_type) = match image.source() {
-            gltf::image::Source::View { view, mime_type } => {
-                let buffer = self
-                    .buffers
-                    .get(view.buffer().index())
-                    .ok_or_else(|| format!("buffer view {} has no buffer", view.index()))?;
-                let bytes = view
-                    .offset()
-                    .checked_add(view.length())
-                    .and_then(|end| buffer.get(view.offset()..end))
-                    .ok_or_else(|| {
-                        format!(
-                            "buffer view {} ({} bytes at {}) exceeds buffer {} ({} bytes)",
-                            view.index(),
-                            view.length(),
-                            view.offset(),
-                            view.buffer().index(),
-                            buffer.len()
-                        )
-                    })?;
-                (std::borrow::Cow::Borrowed(bytes), Some(mime_type))
-            }
+            gltf::image::Source::View { view, mime_type } => (
+                std::borrow::Cow::Borrowed(view_bytes(&view, self.buffers)?),
+                Some(mime_type),
+            ),
             gltf::image::Source::Uri { uri, mime_type } => {
-                let bytes = if let Some(rest) = uri.strip_prefix("data:") {
-                    let (_, payload) = rest
-                        .split_once(";base64,")
-                        .ok_or_else(|| "data URI is not base64".to_owned())?;
-                    decode_base64(payload).map_err(|e| format!("data URI: {e}"))?
-                } else if uri.contains(':') {
-                    return Err(format!(
-                        "unsupported URI scheme in {uri:?} (only data: URIs and relative paths)"
-                    ));
-                } else {
-                    let relative =
-                        percent_decode(uri).ok_or_else(|| format!("malformed URI {uri:?}"))?;
-                    let file = crate::input_file::resolve_inside(self.base, &relative)?;
-                    crate::input_file::read_regular(&file, crate::input_file::MAX_INPUT_FILE_BYTES)
-                        .map_err(|e| format!("cannot read {}: {e}", file.display()))?
-                };
+                let bytes = uri_bytes(uri, self.base).map_err(|e| match e {
+                    UriError::Invalid(problem) => problem,
+                    UriError::Read { file, source } => {
+                        format!("cannot read {}: {source}", file.display())
+                    }
+                })?;
                 (std::borrow::Cow::Owned(bytes), mime_type)
             }
         };
