@@ -2,11 +2,15 @@
 //! special files, paths that leave their folder, silently dropped array elements, unbounded
 //! loops, non-finite results and unclear messages.
 
+mod support;
+
 use std::path::{Path, PathBuf};
 
 use cdrf_core::curvature::{CurvatureOptions, MAX_SMOOTHING_ITERATIONS, mean_curvature_per_mm};
 use cdrf_core::mesh::Mesh;
 use cdrf_core::{RgbaImage, Scene, read_gaussian, read_lut};
+
+use support::chain;
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -15,17 +19,6 @@ fn fixture(name: &str) -> PathBuf {
 }
 
 /// The error and its sources, joined with ": ".
-fn chain(error: &dyn std::error::Error) -> String {
-    let mut out = error.to_string();
-    let mut source = error.source();
-    while let Some(e) = source {
-        out.push_str(": ");
-        out.push_str(&e.to_string());
-        source = e.source();
-    }
-    out
-}
-
 #[track_caller]
 fn assert_contains(message: &str, needles: &[&str]) {
     for needle in needles {

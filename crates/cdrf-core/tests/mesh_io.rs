@@ -1,5 +1,7 @@
 //! Mesh loading (OBJ, glTF, GLB), repair, welding and GLB export with `_CURVATURE`.
 
+mod support;
+
 use std::path::{Path, PathBuf};
 
 use cdrf_core::curvature::{CurvatureOptions, mean_curvature_per_mm};
@@ -9,22 +11,13 @@ use cdrf_core::mesh::{
 };
 use glam::{Vec2, Vec3};
 
+use support::{base64, chain};
+
 fn bunny_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/bunny/bunny.obj")
 }
 
 /// The error and its sources, joined with ": " (as `anyhow`'s `{:#}` prints them).
-fn chain(error: &dyn std::error::Error) -> String {
-    let mut out = error.to_string();
-    let mut source = error.source();
-    while let Some(e) = source {
-        out.push_str(": ");
-        out.push_str(&e.to_string());
-        source = e.source();
-    }
-    out
-}
-
 fn approx_eq(a: Vec3, b: Vec3, eps: f32) {
     assert!(
         (a - b).abs().max_element() <= eps,
@@ -352,27 +345,6 @@ fn obj_errors_name_the_file() {
 }
 
 // ---------------------------------------------------------------- glTF
-
-fn base64(bytes: &[u8]) -> String {
-    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
 
 fn floats(values: &[f32]) -> Vec<u8> {
     values.iter().flat_map(|f| f.to_le_bytes()).collect()

@@ -2,11 +2,15 @@
 //! fixture (`tests/fixtures/textured.glb`, made by `examples/make_textured_asset.rs`), of OBJ
 //! files, and of small hand-written glTF files, good and bad.
 
+mod support;
+
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
 use cdrf_core::glam::{Vec3, Vec4};
 use cdrf_core::mesh::{Mesh, MeshSurfaces, SurfacePrimitive, TextureWrap};
+
+use support::{base64, chain};
 
 fn fixture() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/textured.glb")
@@ -206,27 +210,6 @@ fn obj_gives_one_primitive_and_no_tangents() {
 }
 
 // ---- hand-written glTF files ----
-
-fn base64(bytes: &[u8]) -> String {
-    const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
 
 fn png(width: u32, height: u32, rgb: &[u8]) -> Vec<u8> {
     let mut bytes = Vec::new();
@@ -520,16 +503,6 @@ fn textures_on_other_sets_are_ignored_with_a_warning() {
 }
 
 /// The error's whole chain, one string.
-fn chain(error: &dyn std::error::Error) -> String {
-    let mut text = error.to_string();
-    let mut source = error.source();
-    while let Some(cause) = source {
-        text.push_str(&format!(": {cause}"));
-        source = cause.source();
-    }
-    text
-}
-
 fn load_error(dir: &Path, name: &str, textures: &str, images: &str) -> String {
     let text = square_gltf(
         &[(0, 6, Some(0), false)],
