@@ -3,8 +3,9 @@
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
+use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::RgbaImage;
-use cdrf_core::scene::{Scene, SceneAssets};
+use cdrf_core::scene::{Projection, Scene, SceneAssets};
 use cdrf_render::Options;
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
 
@@ -53,4 +54,49 @@ pub fn render_predictable(scene: &Scene, assets: &SceneAssets) -> RgbaImage {
     render_scene(software_device(), scene, assets, &settings)
         .unwrap_or_else(|error| panic!("{error}"))
         .image
+}
+
+/// The radius of the sphere of `data/scenes/sphere_r35.toml`, mm (world units).
+pub const SPHERE_RADIUS_MM: f32 = 35.0;
+
+/// The r = 35 mm sphere scene (`data/scenes/sphere_r35.toml`: world units are mm, an
+/// orthographic camera along −z) at `size` × `size` px, no MSAA, with its assets loaded.
+///
+/// # Panics
+/// If the scene or its assets cannot be loaded.
+pub fn sphere_scene(size: u32) -> (Scene, SceneAssets) {
+    let path = data_dir().join("scenes/sphere_r35.toml");
+    let mut scene = Scene::load(&path).unwrap_or_else(|error| panic!("{error}"));
+    scene.camera.width = size;
+    scene.camera.height = size;
+    scene.camera.msaa_samples = 1;
+    let assets = scene
+        .load_assets()
+        .unwrap_or_else(|error| panic!("{error}"));
+    (scene, assets)
+}
+
+/// Per pixel of [`sphere_scene`] at least 2 px inside the disk: the point it sees on the ideal
+/// sphere of radius [`SPHERE_RADIUS_MM`] about the origin, and that point's normal.
+///
+/// # Panics
+/// If the scene's camera is not orthographic.
+pub fn sphere_points(scene: &Scene) -> Vec<Option<(Vec3, Vec3)>> {
+    let Projection::Orthographic { half_height } = scene.camera.projection else {
+        panic!("the sphere scene is orthographic");
+    };
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    let mm_per_px = 2.0 * half_height / height as f32;
+    let inner = SPHERE_RADIUS_MM - 2.0 * mm_per_px;
+    (0..width * height)
+        .map(|index| {
+            let x = ((index % width) as f32 + 0.5 - width as f32 / 2.0) * mm_per_px;
+            let y = (height as f32 / 2.0 - (index / width) as f32 - 0.5) * mm_per_px;
+            let r2 = x * x + y * y;
+            (r2 < inner * inner).then(|| {
+                let p = Vec3::new(x, y, (SPHERE_RADIUS_MM * SPHERE_RADIUS_MM - r2).sqrt());
+                (p, p / SPHERE_RADIUS_MM)
+            })
+        })
+        .collect()
 }

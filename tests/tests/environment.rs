@@ -9,47 +9,21 @@ use cdrf_core::environment::{Environment, EnvironmentDesc, radiance_brute_force}
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::light::{DirectionalLight, Light};
-use cdrf_core::scene::{Material, Scene, SceneAssets};
+use cdrf_core::scene::{Material, Scene};
 use cdrf_core::specular::SpecularLayer;
 use cdrf_core::{Cdrf, CdrfLut};
 use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
-use cdrf_tests::{data_dir, render_predictable};
+use cdrf_tests::{SPHERE_RADIUS_MM, render_predictable, sphere_points, sphere_scene};
 
 const TOLERANCE: Tolerance = Tolerance {
     mean_flip: 0.005,
     max_flip_fraction_above_0_1: 0.002,
 };
-const RADIUS_MM: f32 = 35.0;
-
-/// The r = 35 mm sphere scene (world units are mm, camera along +z), `size` px, no MSAA.
-fn sphere_scene(size: u32) -> (Scene, SceneAssets) {
-    let path = data_dir().join("scenes/sphere_r35.toml");
-    let mut scene = Scene::load(&path).unwrap_or_else(|error| panic!("{error}"));
-    scene.camera.width = size;
-    scene.camera.height = size;
-    scene.camera.msaa_samples = 1;
-    let assets = scene
-        .load_assets()
-        .unwrap_or_else(|error| panic!("{error}"));
-    (scene, assets)
-}
-
-/// Per pixel well inside the disk: the normal of the ideal sphere it sees.
+/// The normal of the ideal sphere each pixel of [`sphere_scene`] sees well inside its disk.
 fn sphere_normals(scene: &Scene) -> Vec<Option<Vec3>> {
-    let cdrf_core::scene::Projection::Orthographic { half_height } = scene.camera.projection else {
-        panic!("the sphere scene is orthographic");
-    };
-    let (width, height) = (scene.camera.width, scene.camera.height);
-    let mm_per_px = 2.0 * half_height / height as f32;
-    let inner = RADIUS_MM - 2.0 * mm_per_px;
-    (0..width * height)
-        .map(|index| {
-            let x = ((index % width) as f32 + 0.5 - width as f32 / 2.0) * mm_per_px;
-            let y = (height as f32 / 2.0 - (index / width) as f32 - 0.5) * mm_per_px;
-            let r2 = x * x + y * y;
-            (r2 < inner * inner)
-                .then(|| Vec3::new(x, y, (RADIUS_MM * RADIUS_MM - r2).sqrt()) / RADIUS_MM)
-        })
+    sphere_points(scene)
+        .into_iter()
+        .map(|hit| hit.map(|(_, normal)| normal))
         .collect()
 }
 
@@ -167,7 +141,7 @@ fn measured_sphere_under_a_uniform_sky_matches_integration_of_the_table() {
     scene.lights.clear();
     scene.environment = Some(EnvironmentDesc::uniform(sky));
     let image = render_predictable(&scene, &assets);
-    let response = uniform_sky_response(lut, 1.0 / RADIUS_MM);
+    let response = uniform_sky_response(lut, 1.0 / SPHERE_RADIUS_MM);
     let truth: Vec<Option<[f32; 3]>> = sphere_normals(&scene)
         .into_iter()
         .map(|n| {
@@ -214,7 +188,9 @@ fn lambert_sphere_under_a_map_matches_the_brute_force_integral() {
         // A Gaussian CDRF of σ = 0 is cos⁺θ times its scale: Lambert.
         let truth: Vec<Option<[f32; 3]>> = sphere_normals(&scene)
             .into_iter()
-            .map(|n| n.map(|n| radiance_brute_force(&lambert, 1.0 / RADIUS_MM, n, &environment)))
+            .map(|n| {
+                n.map(|n| radiance_brute_force(&lambert, 1.0 / SPHERE_RADIUS_MM, n, &environment))
+            })
             .collect();
         let (mean, worst, count) = relative_errors(&image, &truth);
         println!(

@@ -6,50 +6,14 @@
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
-use cdrf_core::scene::{Material, Scene, SceneAssets};
+use cdrf_core::scene::{Material, Scene};
 use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
-use cdrf_tests::{data_dir, render_predictable};
+use cdrf_tests::{data_dir, render_predictable, sphere_points, sphere_scene};
 
 const TOLERANCE: Tolerance = Tolerance {
     mean_flip: 0.005,
     max_flip_fraction_above_0_1: 0.002,
 };
-
-/// The r = 35 mm sphere scene (world units are mm), `size` px, no MSAA.
-fn sphere_scene(size: u32) -> (Scene, SceneAssets) {
-    let path = data_dir().join("scenes/sphere_r35.toml");
-    let mut scene = Scene::load(&path).unwrap_or_else(|error| panic!("{error}"));
-    scene.camera.width = size;
-    scene.camera.height = size;
-    scene.camera.msaa_samples = 1;
-    let assets = scene
-        .load_assets()
-        .unwrap_or_else(|error| panic!("{error}"));
-    (scene, assets)
-}
-
-/// Per pixel well inside the disk: the surface point it sees on the ideal sphere of radius
-/// 35 mm about the origin (orthographic camera along +z), and its normal.
-fn sphere_points(scene: &Scene) -> Vec<Option<(Vec3, Vec3)>> {
-    const RADIUS_MM: f32 = 35.0;
-    let cdrf_core::scene::Projection::Orthographic { half_height } = scene.camera.projection else {
-        panic!("the sphere scene is orthographic");
-    };
-    let (width, height) = (scene.camera.width, scene.camera.height);
-    let mm_per_px = 2.0 * half_height / height as f32;
-    let inner = RADIUS_MM - 2.0 * mm_per_px;
-    (0..width * height)
-        .map(|index| {
-            let x = ((index % width) as f32 + 0.5 - width as f32 / 2.0) * mm_per_px;
-            let y = (height as f32 / 2.0 - (index / width) as f32 - 0.5) * mm_per_px;
-            let r2 = x * x + y * y;
-            (r2 < inner * inner).then(|| {
-                let p = Vec3::new(x, y, (RADIUS_MM * RADIUS_MM - r2).sqrt());
-                (p, p / RADIUS_MM)
-            })
-        })
-        .collect()
-}
 
 /// Mean and largest relative error of a white Lambertian sphere under `light` against
 /// 1/π · E · cos⁺θ (pixels brighter than a tenth of the brightest), and how much the analytic
