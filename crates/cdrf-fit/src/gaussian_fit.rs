@@ -34,7 +34,7 @@ struct Normal {
 }
 
 /// Smallest and largest σ considered, mm.
-const SIGMA_RANGE_MM: (f64, f64) = (0.01, 100.0);
+pub(crate) const SIGMA_RANGE_MM: (f64, f64) = (0.01, 100.0);
 
 /// Fits σ and scale per channel.
 ///
@@ -117,20 +117,7 @@ pub fn fit_gaussian(
                 let (k_r, k_m_k) = moments(log_sigma.exp());
                 if k_m_k > 0.0 { k_r * k_r / k_m_k } else { 0.0 }
             };
-            let (lo, hi) = (SIGMA_RANGE_MM.0.ln(), SIGMA_RANGE_MM.1.ln());
-            let steps = 32;
-            let grid: Vec<f64> = (0..=steps)
-                .map(|i| lo + (hi - lo) * i as f64 / steps as f64)
-                .collect();
-            let best = grid
-                .iter()
-                .map(|&x| (x, explained(x)))
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-                .map_or(lo, |(x, _)| x);
-            let step = (hi - lo) / steps as f64;
-            let log_sigma =
-                golden_section_max(&explained, (best - step).max(lo), (best + step).min(hi));
-            let sigma = log_sigma.exp();
+            let sigma = best_log_sigma(&explained, 32, 30).exp();
             let (k_r, k_m_k) = moments(sigma);
             let fitted_scale = if k_m_k > 0.0 { k_r / k_m_k } else { 0.0 };
             let residual = (energy - fitted_scale * k_r).max(0.0);
@@ -151,22 +138,42 @@ pub fn fit_gaussian(
     })
 }
 
-fn golden_section_max(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+/// The ln σ in [`SIGMA_RANGE_MM`] that maximises `explained` (a function of ln σ): the best of
+/// `grid_steps + 1` log-spaced values, refined by `refine_iterations` golden-section steps within
+/// one grid step of it. Kubo's fit to photographs and a preset's fit to its table both search so.
+pub(crate) fn best_log_sigma(
+    explained: &impl Fn(f64) -> f64,
+    grid_steps: u32,
+    refine_iterations: u32,
+) -> f64 {
+    let (lo, hi) = (SIGMA_RANGE_MM.0.ln(), SIGMA_RANGE_MM.1.ln());
+    let steps = f64::from(grid_steps);
+    let best = (0..=grid_steps)
+        .map(|i| lo + (hi - lo) * f64::from(i) / steps)
+        .map(|x| (x, explained(x)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(lo, |(x, _)| x);
+    let step = (hi - lo) / steps;
+    golden_section_max(
+        explained,
+        (best - step).max(lo),
+        (best + step).min(hi),
+        refine_iterations,
+    )
+}
+
+fn golden_section_max(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64, iterations: u32) -> f64 {
     let ratio = (5.0_f64.sqrt() - 1.0) / 2.0;
     let mut c = b - ratio * (b - a);
     let mut d = a + ratio * (b - a);
     let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..30 {
+    for _ in 0..iterations {
         if fc > fd {
-            b = d;
-            d = c;
-            fd = fc;
+            (b, d, fd) = (d, c, fc);
             c = b - ratio * (b - a);
             fc = f(c);
         } else {
-            a = c;
-            c = d;
-            fc = fd;
+            (a, c, fc) = (c, d, fd);
             d = a + ratio * (b - a);
             fd = f(d);
         }

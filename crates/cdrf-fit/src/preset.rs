@@ -64,6 +64,8 @@ use cdrf_core::lut::{Cdrf, CdrfLut, CurvatureAxis, LutError, ViewCorrection, the
 use cdrf_core::lut_file::{LutFileError, write_lut};
 use rayon::prelude::*;
 
+use crate::gaussian_fit::best_log_sigma;
+
 pub use crate::outputs::{GAUSSIAN, MEASURED_LUT};
 
 /// A medium of Jensen et al. (2001), table 2: reduced scattering σs′ and absorption σa, mm⁻¹
@@ -357,9 +359,6 @@ impl Default for PresetSettings {
     }
 }
 
-/// Smallest and largest σ of the Gaussian fit, mm (as `cdrf-fit`'s).
-const SIGMA_RANGE_MM: (f64, f64) = (0.01, 100.0);
-
 /// The Gaussian fit uses at most this many rows and columns of the table (every k-th).
 const FIT_MAX_ROWS: usize = 65;
 /// See [`FIT_MAX_ROWS`].
@@ -411,16 +410,7 @@ pub fn fit_gaussian_to_lut(lut: &CdrfLut) -> Result<GaussianCdrf, PresetError> {
                 let (kf, kk) = moments(log_sigma.exp());
                 if kk > 0.0 { kf * kf / kk } else { 0.0 }
             };
-            let (lo, hi) = (SIGMA_RANGE_MM.0.ln(), SIGMA_RANGE_MM.1.ln());
-            let steps = 40;
-            let step = (hi - lo) / f64::from(steps);
-            let best = (0..=steps)
-                .map(|i| lo + step * f64::from(i))
-                .map(|x| (x, explained(x)))
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-                .map_or(lo, |(x, _)| x);
-            let sigma =
-                golden_section_max(&explained, (best - step).max(lo), (best + step).min(hi)).exp();
+            let sigma = best_log_sigma(&explained, 40, 40).exp();
             let (kf, kk) = moments(sigma);
             (sigma, if kk > 0.0 { kf / kk } else { f64::NAN })
         })
@@ -430,25 +420,6 @@ pub fn fit_gaussian_to_lut(lut: &CdrfLut) -> Result<GaussianCdrf, PresetError> {
         [0, 1, 2].map(|c| per_channel[c].1 as f32),
     )
     .map_err(PresetError::Gaussian)
-}
-
-fn golden_section_max(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
-    let ratio = (5.0_f64.sqrt() - 1.0) / 2.0;
-    let mut c = b - ratio * (b - a);
-    let mut d = a + ratio * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..40 {
-        if fc > fd {
-            (b, d, fd) = (d, c, fc);
-            c = b - ratio * (b - a);
-            fc = f(c);
-        } else {
-            (a, c, fc) = (c, d, fd);
-            d = a + ratio * (b - a);
-            fd = f(d);
-        }
-    }
-    0.5 * (a + b)
 }
 
 /// What [`write_preset`] wrote.
