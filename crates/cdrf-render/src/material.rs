@@ -50,29 +50,40 @@ pub enum MaterialDesc<'a> {
 }
 
 /// The material's zonal coefficients a_l(κ) of the environment light (`None`: the curvature
-/// view), [`ENVIRONMENT_ZONAL_ROWS`] rows over its table's curvature axis (Lambert: one row).
-fn environment_zonal_table(desc: &MaterialDesc<'_>, options: &Options) -> Option<ZonalTable> {
+/// view), [`ENVIRONMENT_ZONAL_ROWS`] rows over its table's curvature axis (Lambert: one row),
+/// integrated from the table the shader reads: the measured one, or for the Gaussian CDRF its
+/// tabulation `table` (cheaper to integrate than the analytic model, which only
+/// [`GaussianEvaluation::Analytic`] materials integrate).
+fn environment_zonal_table(
+    desc: &MaterialDesc<'_>,
+    table: Option<&CdrfLut>,
+    options: &Options,
+) -> Option<ZonalTable> {
     let rows = |min_per_mm: f32, max_per_mm: f32| CurvatureAxis {
         min_per_mm,
         max_per_mm,
         count: ENVIRONMENT_ZONAL_ROWS,
     };
-    Some(match *desc {
-        MaterialDesc::Measured { lut } => {
-            let axis = lut.curvature_axis();
-            ZonalTable::tabulate(
-                lut,
-                rows(axis.min_per_mm, axis.max_per_mm),
-                ENVIRONMENT_SH_ORDER,
-            )
-        }
-        MaterialDesc::Gaussian { model, .. } => ZonalTable::tabulate(
-            model,
-            rows(0.0, options.gaussian_lut_max_curvature_per_mm),
+    let from_table = |lut: &CdrfLut| {
+        let axis = lut.curvature_axis();
+        ZonalTable::tabulate(
+            lut,
+            rows(axis.min_per_mm, axis.max_per_mm),
             ENVIRONMENT_SH_ORDER,
-        ),
-        MaterialDesc::Lambert { albedo } => ZonalTable::lambert(albedo, ENVIRONMENT_SH_ORDER),
+        )
+    };
+    Some(match *desc {
         MaterialDesc::Curvature { .. } => return None,
+        MaterialDesc::Lambert { albedo } => ZonalTable::lambert(albedo, ENVIRONMENT_SH_ORDER),
+        MaterialDesc::Measured { lut } => from_table(lut),
+        MaterialDesc::Gaussian { model, .. } => match table {
+            Some(tabulated) => from_table(tabulated),
+            None => ZonalTable::tabulate(
+                model,
+                rows(0.0, options.gaussian_lut_max_curvature_per_mm),
+                ENVIRONMENT_SH_ORDER,
+            ),
+        },
     })
 }
 
@@ -344,7 +355,7 @@ impl MaterialFactory {
             ),
         };
 
-        if let Some(table) = environment_zonal_table(desc, options) {
+        if let Some(table) = environment_zonal_table(desc, lut, options) {
             let rows = &table.curvatures_per_mm;
             uniforms.environment_curvature_per_mm = [rows[0], rows[rows.len() - 1]];
             for (row, slots) in uniforms
