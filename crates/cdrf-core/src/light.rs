@@ -37,7 +37,43 @@ pub struct SpotLight {
     pub outer_angle_rad: f32,
 }
 
+impl PointLight {
+    /// A lamp `distance` world units from `target` toward the unit vector `to_light`, as
+    /// bright at `target` as a directional light of `irradiance` there: intensity
+    /// `irradiance · (distance · mm_per_world_unit)²`.
+    pub fn facing(
+        target: Vec3,
+        to_light: Vec3,
+        distance: f32,
+        mm_per_world_unit: f32,
+        irradiance: [f32; 3],
+    ) -> Self {
+        let distance_mm = distance * mm_per_world_unit;
+        Self {
+            position: target + to_light * distance,
+            intensity: irradiance.map(|e| e * distance_mm * distance_mm),
+        }
+    }
+}
+
 impl SpotLight {
+    /// `lamp` turned into a spot aimed at `target`, full within `inner_angle_rad` of its axis
+    /// and dark beyond `outer_angle_rad`.
+    pub fn aimed_at(
+        lamp: PointLight,
+        target: Vec3,
+        inner_angle_rad: f32,
+        outer_angle_rad: f32,
+    ) -> Self {
+        Self {
+            position: lamp.position,
+            direction: (target - lamp.position).normalize_or_zero(),
+            intensity: lamp.intensity,
+            inner_angle_rad,
+            outer_angle_rad,
+        }
+    }
+
     /// The cone's factor (0..=1) for light leaving along the unit vector `from_light`:
     /// `smoothstep(cos outer, cos inner, from_light · direction)`.
     pub fn cone_factor(&self, from_light: Vec3) -> f32 {
@@ -173,6 +209,25 @@ impl NonLocal {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_lamp_facing_a_target_gives_it_the_irradiance_asked_for() {
+        let target = Vec3::new(1.0, 2.0, 3.0);
+        let to_light = Vec3::new(-0.6, 0.0, 0.8);
+        // 40 world units of 2.5 mm: 100 mm away.
+        let lamp = PointLight::facing(target, to_light, 40.0, 2.5, [0.5, 1.0, 2.0]);
+        assert!((lamp.position - (target + 40.0 * to_light)).length() < 1e-4);
+        let at = Light::Point(lamp).incidence(target, 2.5);
+        for (e, want) in at.irradiance.iter().zip([0.5, 1.0, 2.0]) {
+            assert!((e - want).abs() < 1e-5 * want, "{e} vs {want}");
+        }
+        assert!((at.to_light - to_light).length() < 1e-5);
+        // Aimed at the target, the spot's axis passes through it at full strength.
+        let spot = SpotLight::aimed_at(lamp, target, 0.2, 0.4);
+        assert!((spot.direction + to_light).length() < 1e-5);
+        let at_spot = Light::Spot(spot).incidence(target, 2.5);
+        assert_eq!(at_spot.irradiance, at.irradiance);
+    }
 
     #[test]
     fn point_light_falls_off_with_the_square_of_the_distance_in_mm() {

@@ -914,28 +914,18 @@ impl App {
         let to_light = self.light.to_light();
         let centre = (self.scene.bounds_min + self.scene.bounds_max) / 2.0;
         let distance = 1.5 * (self.scene.bounds_max - self.scene.bounds_min).length();
-        let distance_mm = distance * self.config.mm_per_unit;
-        let position = centre + to_light * distance;
-        let intensity = [PI * distance_mm * distance_mm; 3];
+        let lamp =
+            || PointLight::facing(centre, to_light, distance, self.config.mm_per_unit, [PI; 3]);
         let lights: [cdrf_render::Light; 1] = [match self.light_kind {
             LightKind::Directional => DirectionalLight {
                 to_light,
                 irradiance: [PI; 3],
             }
             .into(),
-            LightKind::Point => PointLight {
-                position,
-                intensity,
+            LightKind::Point => lamp().into(),
+            LightKind::Spot => {
+                SpotLight::aimed_at(lamp(), centre, 15f32.to_radians(), 25f32.to_radians()).into()
             }
-            .into(),
-            LightKind::Spot => SpotLight {
-                position,
-                direction: -to_light,
-                intensity,
-                inner_angle_rad: 15f32.to_radians(),
-                outer_angle_rad: 25f32.to_radians(),
-            }
-            .into(),
         }];
         let environment = self.environment_on.then_some(&self.environment);
         // The mesh is drawn in its own units: world units are model units.

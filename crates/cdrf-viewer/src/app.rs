@@ -149,28 +149,27 @@ impl Settings {
     pub fn light(&self) -> Light {
         let to_light = self.to_light();
         let irradiance = [self.irradiance; 3];
-        let d = self.light_distance_mm;
-        let position = to_light * d;
-        let intensity = irradiance.map(|e| e * d * d);
+        // World units are mm here.
+        let lamp = || {
+            PointLight::facing(
+                Vec3::ZERO,
+                to_light,
+                self.light_distance_mm,
+                1.0,
+                irradiance,
+            )
+        };
         match self.light_kind {
             LightKind::Directional => DirectionalLight {
                 to_light,
                 irradiance,
             }
             .into(),
-            LightKind::Point => PointLight {
-                position,
-                intensity,
+            LightKind::Point => lamp().into(),
+            LightKind::Spot => {
+                SpotLight::aimed_at(lamp(), Vec3::ZERO, 15f32.to_radians(), 25f32.to_radians())
+                    .into()
             }
-            .into(),
-            LightKind::Spot => SpotLight {
-                position,
-                direction: -to_light,
-                intensity,
-                inner_angle_rad: 15f32.to_radians(),
-                outer_angle_rad: 25f32.to_radians(),
-            }
-            .into(),
         }
     }
 
