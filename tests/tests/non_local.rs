@@ -151,6 +151,7 @@ fn a_shape_shadowing_another() {
         mesh,
         curvature_per_mm,
         material: Material::Measured(lut),
+        surfaces: Default::default(),
     };
     let half_height = 45.0;
     let light = Vec3::NEG_X;
@@ -222,6 +223,7 @@ fn slab(thickness_mm: f32, material: Material) -> SceneAssets {
         curvature_per_mm: vec![0.0; mesh.positions.len()],
         mesh,
         material,
+        surfaces: Default::default(),
     }
 }
 
@@ -397,6 +399,7 @@ fn non_local_terms_do_not_pattern_a_coarse_mesh() {
         mesh,
         curvature_per_mm,
         material: Material::Measured(lut),
+        surfaces: Default::default(),
     };
     let light = Vec3::new(-1.0, 0.6, 0.3);
     let local = render_predictable(&scene(48.0, light, NonLocal::OFF), &assets);
@@ -435,6 +438,7 @@ fn interreflection_matches_the_form_factor_and_vanishes_on_a_sphere() {
         material: Material::Lambert {
             albedo: [albedo; 3],
         },
+        surfaces: Default::default(),
     };
     let half_height = 35.0;
     let bounce = NonLocal {
@@ -477,6 +481,7 @@ fn interreflection_matches_the_form_factor_and_vanishes_on_a_sphere() {
         mesh,
         curvature_per_mm,
         material: Material::Measured(lut),
+        surfaces: Default::default(),
     };
     let light = Vec3::new(-1.0, 0.3, 0.4);
     let local = NonLocal {
@@ -562,6 +567,7 @@ fn the_subsurface_gather_leaves_a_sphere_as_the_table_renders_it() {
         mesh,
         curvature_per_mm,
         material: Material::Measured(lut),
+        surfaces: Default::default(),
     };
     let light = Vec3::new(-1.0, 0.3, 0.4);
     let gather = NonLocal {

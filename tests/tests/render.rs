@@ -269,11 +269,11 @@ fn render_unorm(scene: &Scene, assets: &SceneAssets) -> Srgb8Image {
     let material = renderer
         .create_material(device, queue, &MaterialDesc::Measured { lut })
         .unwrap();
-    let draws = [Draw {
+    let draws = [Draw::new(
         mesh,
         material,
-        world_from_model: scene.mesh.transform.world_from_model(),
-    }];
+        scene.mesh.transform.world_from_model(),
+    )];
     renderer
         .prepare(
             device,
@@ -724,11 +724,7 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
         "render before prepare drew"
     );
 
-    let draws = [Draw {
-        mesh,
-        material,
-        world_from_model: glam::Mat4::IDENTITY,
-    }];
+    let draws = [Draw::new(mesh, material, glam::Mat4::IDENTITY)];
     let frame = |lights: &'static [Light]| FrameDesc {
         view,
         lights,
@@ -765,11 +761,7 @@ fn render_before_prepare_and_after_errors_draws_nothing() {
 
     // Another target format: a pipeline of its own, same picture (sRGB encoding either way).
     let mesh = LambertSphere::upload_mesh(&mut renderer, 2);
-    let draws = [Draw {
-        mesh,
-        material,
-        world_from_model: glam::Mat4::IDENTITY,
-    }];
+    let draws = [Draw::new(mesh, material, glam::Mat4::IDENTITY)];
     let frame = FrameDesc {
         view,
         lights: &ONE_LIGHT,
@@ -887,13 +879,7 @@ fn prepare_rejects_unusable_input() {
         material,
         view,
     } = LambertSphere::new(format, 1);
-    let draw = |world_from_model| {
-        [Draw {
-            mesh,
-            material,
-            world_from_model,
-        }]
-    };
+    let draw = |world_from_model| [Draw::new(mesh, material, world_from_model)];
     let ok = draw(glam::Mat4::IDENTITY);
     let frame = |view, exposure, draws| FrameDesc {
         view,

@@ -85,7 +85,7 @@ use crate::gaussian_file::{GaussianFileError, read_gaussian};
 use crate::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
 use crate::lut::{CdrfLut, ViewCorrection};
 use crate::lut_file::{LutFileError, read_lut};
-use crate::mesh::{LoadError, Mesh};
+use crate::mesh::{LoadError, Mesh, MeshSurfaces};
 use crate::specular::{DEFAULT_IOR, DEFAULT_ROUGHNESS_ALPHA, SpecularLayer};
 
 /// A scene: what to render and how.
@@ -288,6 +288,9 @@ pub struct SceneAssets {
     pub curvature_per_mm: Vec<f32>,
     /// The shading model with its data.
     pub material: Material,
+    /// The mesh's glTF materials, primitives and tangents, to draw it textured (empty
+    /// primitives: one untextured draw of the whole mesh).
+    pub surfaces: MeshSurfaces,
 }
 
 /// Why a scene could not be loaded.
@@ -934,14 +937,15 @@ impl Scene {
             .transpose()
     }
 
-    /// Loads the mesh (computing its curvature) and the shading model's files.
+    /// Loads the mesh (computing its curvature; with its glTF materials and textures, see
+    /// [`Mesh::load_with_surfaces`]) and the shading model's files.
     ///
     /// # Errors
     /// [`SceneError`] naming the key and the failing file.
     pub fn load_assets(&self) -> Result<SceneAssets, SceneError> {
-        let mesh = Mesh::load(&self.mesh.path)
-            .map_err(|error| SceneError::Mesh { error })?
-            .mesh;
+        let (repaired, surfaces) = Mesh::load_with_surfaces(&self.mesh.path)
+            .map_err(|error| SceneError::Mesh { error })?;
+        let mesh = repaired.mesh;
         let curvature_per_mm = mean_curvature_per_mm(
             &mesh,
             &CurvatureOptions::new(self.mesh.mm_per_unit)
@@ -980,6 +984,7 @@ impl Scene {
             mesh,
             curvature_per_mm,
             material,
+            surfaces,
         })
     }
 }

@@ -242,6 +242,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             mesh,
             curvature_per_mm,
             material: Material::Lambert { albedo: [1.0; 3] },
+            surfaces: Default::default(),
         };
         for _ in 0..rounds {
             for (variant, times) in variants.iter().zip(&mut times) {

@@ -38,7 +38,7 @@
 //! let mesh = renderer.create_mesh(&device, &MeshDesc::from_mesh(&mesh, &kappa))?;
 //! let wax = renderer.create_material(&device, &queue, &MaterialDesc::Measured { lut: &lut })?;
 //! // Each frame, before your pass: camera, lights, draws.
-//! let draws = [Draw { mesh, material: wax, world_from_model }];
+//! let draws = [Draw::new(mesh, wax, world_from_model)];
 //! let frame = FrameDesc {
 //!     view, lights: &lights, exposure: 1.0, draws: &draws, non_local, mm_per_world_unit,
 //!     environment: None,
@@ -637,11 +637,11 @@ impl Gpu {
         let surface_view = surface_texture.texture.create_view(&Default::default());
 
         // cdrf-render: upload this frame's camera, light and draw list.
-        let draws = [Draw {
-            mesh: self.mesh,
-            material: self.materials[shading.index()],
-            world_from_model: cdrf_core::glam::Mat4::IDENTITY,
-        }];
+        let draws = [Draw::new(
+            self.mesh,
+            self.materials[shading.index()],
+            cdrf_core::glam::Mat4::IDENTITY,
+        )];
         // With shadows or transmission on, this returns the shadow pass to submit first.
         let shadow_pass = self
             .renderer

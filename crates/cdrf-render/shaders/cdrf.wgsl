@@ -7,11 +7,14 @@
 // An environment light adds its SH sum with the material's zonal coefficients a_l(κ), times
 // g(0, φ); a specular layer (cdrf-core's specular module) scales all of that by the share t its
 // boundary lets through and adds Σ_lights E · f_spec · cos θ (dimmed by the shadows' V).
+// A draw's surface (cdrf-render's surface module) tints the subsurface light by its base
+// colour, bends the per-pixel normal by its normal map and sets the specular roughness.
 //
 // Bind groups (all owned by cdrf-render's Renderer):
 //   0: frame    camera, lights
 //   1: material LUT, view correction, model parameters
-//   2: draw     model transform (dynamic offset)
+//   2: draw     model transform and surface factors (dynamic offset), the surface's base
+//               colour, normal and roughness textures and their samplers
 //   3: shadows  per-light light-space transforms, shadow maps (first-surface depth) and surfel
 //               maps (the lit first surface, for the inter-reflection)
 //
@@ -222,6 +225,13 @@ struct Shadows {
 // s(κ, θ): the measured table over F_sphere on the sphere's shadow side (see the header).
 @group(1) @binding(5) var subsurface_gain: texture_2d<f32>;
 @group(2) @binding(0) var<uniform> draw: Draw;
+// sRGB base colour (decoded by the format), tangent-space normals, roughness in G.
+@group(2) @binding(1) var base_color_texture: texture_2d<f32>;
+@group(2) @binding(2) var normal_texture: texture_2d<f32>;
+@group(2) @binding(3) var roughness_texture: texture_2d<f32>;
+@group(2) @binding(4) var base_color_sampler: sampler;
+@group(2) @binding(5) var normal_sampler: sampler;
+@group(2) @binding(6) var roughness_sampler: sampler;
 @group(3) @binding(0) var<uniform> shadows: Shadows;
 @group(3) @binding(1) var shadow_maps: texture_depth_2d_array;
 // Surfel maps: exitance f/cos θ (rgb; 0 where no surface) and the light-space normal's x (a);
@@ -237,6 +247,9 @@ struct VertexIn {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) curvature_per_mm: f32,
+    @location(3) uv: vec2<f32>,
+    // xyz along +u, w the bitangent's sign (zero: no tangents).
+    @location(4) tangent: vec4<f32>,
 }
 
 // Centroid interpolation: with MSAA, a silhouette pixel whose centre lies outside the triangle
@@ -259,6 +272,8 @@ struct VertexOut {
     // Radiance evaluated per vertex (before exposure): the inter-reflected light of all
     // shadowed lights and the environment light, both smooth over the surface.
     @location(11) @interpolate(perspective, centroid) vertex_radiance: vec3<f32>,
+    @location(12) @interpolate(perspective, centroid) uv: vec2<f32>,
+    @location(13) @interpolate(perspective, centroid) world_tangent: vec4<f32>,
 }
 
 // The non-local terms of a translucent material vary over the scattering length σ (light
@@ -273,6 +288,11 @@ fn vs_main(vertex: VertexIn) -> VertexOut {
     out.world_position = world.xyz / world.w;
     out.world_normal = (draw.normal_from_model * vec4<f32>(vertex.normal, 0.0)).xyz;
     out.curvature_per_mm = vertex.curvature_per_mm * draw.curvature_scale;
+    out.uv = vertex.uv;
+    out.world_tangent = vec4<f32>(
+        (draw.world_from_model * vec4<f32>(vertex.tangent.xyz, 0.0)).xyz,
+        vertex.tangent.w,
+    );
     out.visibility_0 = vec3<f32>(1.0);
     out.visibility_1 = vec3<f32>(1.0);
     out.visibility_2 = vec3<f32>(1.0);
@@ -835,9 +855,43 @@ fn thin_part_transmission(
     return thin;
 }
 
+// The per-pixel normal: the interpolated one, bent by the surface's normal map (its texel
+// `encoded`) where the draw has one and its mesh has tangents (glTF's convention:
+// B = cross(N, T) · w).
+fn shading_normal(in: VertexOut, encoded: vec3<f32>) -> vec3<f32> {
+    let normal = normalize(in.world_normal);
+    if (draw.surface_flags & SURFACE_NORMAL_MAP) == 0u || abs(in.world_tangent.w) < 0.5 {
+        return normal;
+    }
+    let t = in.world_tangent.xyz - normal * dot(normal, in.world_tangent.xyz);
+    if dot(t, t) < 1e-12 {
+        return normal;
+    }
+    let tangent = normalize(t);
+    let bitangent = cross(normal, tangent) * sign(in.world_tangent.w);
+    let m = (encoded * 2.0 - 1.0) * vec3<f32>(draw.normal_scale, draw.normal_scale, 1.0);
+    return normalize(tangent * m.x + bitangent * m.y + normal * m.z);
+}
+
+// The specular layer's Beckmann α at this pixel: the surface's (roughness², `texel` its
+// roughness texture's G) or the material's.
+fn specular_alpha(texel: f32) -> f32 {
+    if (draw.surface_flags & SURFACE_ROUGHNESS) == 0u {
+        return material.specular_roughness_alpha;
+    }
+    let roughness = draw.roughness_factor * texel;
+    // (Beckmann's D is singular at α = 0: a mirror is α = 0.01 here.)
+    return max(roughness * roughness, 0.01);
+}
+
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
-    let normal = normalize(in.world_normal);
+    // (Every texture sampled before any branch: implicit derivatives need uniform control
+    // flow.)
+    let tint = draw.base_color_factor
+        * textureSample(base_color_texture, base_color_sampler, in.uv).rgb;
+    let normal = shading_normal(in, textureSample(normal_texture, normal_sampler, in.uv).xyz);
+    let alpha = specular_alpha(textureSample(roughness_texture, roughness_sampler, in.uv).g);
     var radiance = vec3<f32>(0.0);
     if MODEL == MODEL_CURVATURE {
         let range = material.curvature_range_per_mm;
@@ -891,11 +945,12 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
             radiance += incidence.irradiance * FRAC_1_PI * f;
             if material.specular_on != 0u {
                 specular += incidence.irradiance * visibility
-                    * specular_radiance(normal, incidence.to_light, to_camera);
+                    * specular_radiance(normal, incidence.to_light, to_camera, alpha);
             }
         }
         radiance += in.vertex_radiance;
-        radiance = (radiance * material.subsurface_transmission + specular) * frame.exposure;
+        radiance = (radiance * material.subsurface_transmission * tint + specular)
+            * frame.exposure;
     }
     if ENCODE_SRGB {
         radiance = linear_to_srgb(radiance);
@@ -963,7 +1018,12 @@ fn environment_radiance(normal: vec3<f32>, curvature_per_mm: f32) -> vec3<f32> {
 
 // cdrf-core's SpecularLayer::radiance_per_irradiance: F(v·h) D(h) G₁(l) G₁(v) / (4 cos φ),
 // Beckmann D, Smith G₁ in Walter et al.'s rational form, the dielectric's unpolarised Fresnel.
-fn specular_radiance(normal: vec3<f32>, to_light: vec3<f32>, to_camera: vec3<f32>) -> f32 {
+fn specular_radiance(
+    normal: vec3<f32>,
+    to_light: vec3<f32>,
+    to_camera: vec3<f32>,
+    alpha: f32,
+) -> f32 {
     let cos_theta = dot(normal, to_light);
     let cos_phi = dot(normal, to_camera);
     let half_sum = to_light + to_camera;
@@ -975,7 +1035,6 @@ fn specular_radiance(normal: vec3<f32>, to_light: vec3<f32>, to_camera: vec3<f32
     if cos_half <= 0.0 {
         return 0.0;
     }
-    let alpha = material.specular_roughness_alpha;
     let c2 = cos_half * cos_half;
     let a2 = alpha * alpha;
     let d = exp(-max(1.0 - c2, 0.0) / (c2 * a2)) / (PI * a2 * c2 * c2);

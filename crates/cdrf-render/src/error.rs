@@ -6,6 +6,7 @@ use thiserror::Error;
 use crate::material::MaterialId;
 use crate::mesh::MeshId;
 use crate::shaders::MAX_LIGHTS;
+use crate::surface::SurfaceId;
 use crate::target::TargetDesc;
 
 /// Why a mesh could not be uploaded.
@@ -34,12 +35,18 @@ pub enum MeshUploadError {
     /// A per-vertex slice does not have one value per position.
     #[error("{found} {what} for {vertices} vertices")]
     AttributeCount {
-        /// `"normals"` or `"curvature values"`.
+        /// `"normals"`, `"curvature values"`, `"UVs"` or `"tangents"`.
         what: &'static str,
         /// Values given.
         found: usize,
         /// Positions given.
         vertices: usize,
+    },
+    /// A UV or tangent is NaN or infinite.
+    #[error("a {what} is not finite")]
+    NonFinite {
+        /// `"UV"` or `"tangent"`.
+        what: &'static str,
     },
     /// A curvature value is NaN or infinite.
     #[error("curvature of vertex {vertex} is {value}: must be finite")]
@@ -85,6 +92,44 @@ pub enum MaterialError {
     },
 }
 
+/// Why a surface could not be uploaded.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum SurfaceError {
+    /// A factor is out of range.
+    #[error("{what} = {value:?}: {requirement}")]
+    Parameter {
+        /// The parameter.
+        what: &'static str,
+        /// Its value.
+        value: Vec<f32>,
+        /// What it must be.
+        requirement: &'static str,
+    },
+    /// A texture is empty or larger than the device's largest 2D texture.
+    #[error("{what} is {width} × {height} px: each side must be 1..={max} on this device")]
+    TextureSize {
+        /// Which texture.
+        what: &'static str,
+        /// Width, pixels.
+        width: u32,
+        /// Height, pixels.
+        height: u32,
+        /// The device's `max_texture_dimension_2d`.
+        max: u32,
+    },
+    /// A texture's pixels do not fill its width × height.
+    #[error("{what} has {found} pixels, its width × height is {expected}")]
+    TextureData {
+        /// Which texture.
+        what: &'static str,
+        /// Pixels given.
+        found: usize,
+        /// Width × height.
+        expected: usize,
+    },
+}
+
 /// Why a frame could not be prepared. Nothing is drawn until a `prepare` succeeds.
 #[derive(Debug, Error)]
 #[non_exhaustive]
@@ -121,6 +166,26 @@ pub enum PrepareError {
         index: usize,
         /// Its material.
         material: MaterialId,
+    },
+    /// A draw names a surface that does not exist.
+    #[error("draw {index}: unknown surface {surface:?}")]
+    UnknownSurface {
+        /// The draw.
+        index: usize,
+        /// Its surface.
+        surface: SurfaceId,
+    },
+    /// A draw's triangle range is empty, reversed or beyond its mesh's triangles.
+    #[error("draw {index}: triangles {start}..{end}, but the mesh has {triangles}")]
+    BadTriangles {
+        /// The draw.
+        index: usize,
+        /// The range's start.
+        start: u32,
+        /// The range's end.
+        end: u32,
+        /// Triangles in the mesh.
+        triangles: u32,
     },
     /// A draw's transform is singular, mirroring (negative determinant) or not finite.
     #[error("draw {index}: the model transform is singular, mirroring or not finite")]

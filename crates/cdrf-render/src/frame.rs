@@ -1,11 +1,14 @@
 //! What the host describes per frame: camera, lights, draws.
 
+use std::ops::Range;
+
 use cdrf_core::environment::ShCoefficients;
 use cdrf_core::glam::{Mat4, Vec3};
 use cdrf_core::light::{Light, NonLocal};
 
 use crate::material::MaterialId;
 use crate::mesh::MeshId;
+use crate::surface::SurfaceId;
 
 /// The largest [`FrameDesc::exposure`] a frame accepts: beyond it (1e38 was accepted once)
 /// every lit pixel saturates, which is a mistake, not a setting.
@@ -45,8 +48,13 @@ impl View {
     }
 }
 
-/// One object to draw: a mesh, a material and where it is.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// One object to draw: a mesh (or a run of its triangles), a material, optionally a surface,
+/// and where it is. [`Draw::new`] draws a whole mesh without a surface.
+///
+/// A textured asset is one draw per primitive, each with its triangles and its material's
+/// surface ([`MeshSurfaces`](cdrf_core::mesh::MeshSurfaces); the example of
+/// [`Renderer::create_surface`](crate::Renderer::create_surface)).
+#[derive(Clone, Debug, PartialEq)]
 pub struct Draw {
     /// The mesh.
     pub mesh: MeshId,
@@ -55,6 +63,41 @@ pub struct Draw {
     /// Model → world. Its scale (the cube root of the determinant, for a non-uniform scale)
     /// divides the mesh's curvature.
     pub world_from_model: Mat4,
+    /// What the asset paints on the material (`None`: white, no textures; see
+    /// [`crate::surface`]).
+    pub surface: Option<SurfaceId>,
+    /// The triangles drawn, indices into the mesh's triangles (`None`: all). The non-local
+    /// terms' maps hold only these too.
+    pub triangles: Option<Range<u32>>,
+}
+
+impl Draw {
+    /// The whole mesh with the material, no surface.
+    pub fn new(mesh: MeshId, material: MaterialId, world_from_model: Mat4) -> Self {
+        Self {
+            mesh,
+            material,
+            world_from_model,
+            surface: None,
+            triangles: None,
+        }
+    }
+
+    /// With a surface.
+    pub fn with_surface(self, surface: SurfaceId) -> Self {
+        Self {
+            surface: Some(surface),
+            ..self
+        }
+    }
+
+    /// Only these triangles of the mesh (e.g. one glTF primitive's).
+    pub fn with_triangles(self, triangles: Range<u32>) -> Self {
+        Self {
+            triangles: Some(triangles),
+            ..self
+        }
+    }
 }
 
 /// Everything that changes per frame.

@@ -5,7 +5,7 @@
 //! explicit padding to WGSL's alignment rules (vec3 and structs: 16 bytes).
 
 use bytemuck::{Pod, Zeroable};
-use cdrf_core::glam::{Mat4, Vec3};
+use cdrf_core::glam::{Mat4, Vec2, Vec3};
 
 use crate::shaders::{
     ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_COEFFICIENTS, ENVIRONMENT_ZONAL_ROWS, MAX_LIGHTS,
@@ -107,12 +107,17 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One draw's transforms: bind group 2 of the shading pass, 1 of the shadow pass (`Draw`).
+    /// One draw's transforms and its surface's factors: bind group 2 of the shading pass, 1
+    /// of the shadow pass (`Draw`).
     GpuDraw as "Draw" {
         world_from_model: Mat4,
         normal_from_model: Mat4,
+        base_color_factor: Vec3,
         curvature_scale: f32,
-        _pad0: [f32; 3],
+        normal_scale: f32,
+        roughness_factor: f32,
+        surface_flags: u32,
+        _pad0: f32,
     }
 }
 
@@ -149,17 +154,20 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One vertex of a mesh (the shading shader's `VertexIn` locations 0–2).
+    /// One vertex of a mesh (the shading shader's `VertexIn` locations 0–4).
     GpuVertex as "VertexIn" {
         position: Vec3,
         normal: Vec3,
         curvature_per_mm: f32,
+        uv: Vec2,
+        // ([f32; 4], not Vec4: glam's Vec4 is 16-byte aligned, which would pad the vertex.)
+        tangent: [f32; 4],
     }
 }
 
 impl GpuVertex {
     /// The vertex buffer's attributes, from the struct's offsets.
-    pub(crate) const ATTRIBUTES: [wgpu::VertexAttribute; 3] = [
+    pub(crate) const ATTRIBUTES: [wgpu::VertexAttribute; 5] = [
         wgpu::VertexAttribute {
             format: wgpu::VertexFormat::Float32x3,
             offset: std::mem::offset_of!(GpuVertex, position) as u64,
@@ -174,6 +182,16 @@ impl GpuVertex {
             format: wgpu::VertexFormat::Float32,
             offset: std::mem::offset_of!(GpuVertex, curvature_per_mm) as u64,
             shader_location: 2,
+        },
+        wgpu::VertexAttribute {
+            format: wgpu::VertexFormat::Float32x2,
+            offset: std::mem::offset_of!(GpuVertex, uv) as u64,
+            shader_location: 3,
+        },
+        wgpu::VertexAttribute {
+            format: wgpu::VertexFormat::Float32x4,
+            offset: std::mem::offset_of!(GpuVertex, tangent) as u64,
+            shader_location: 4,
         },
     ];
 
@@ -354,7 +372,7 @@ mod tests {
                 locations.push((member.name.clone().unwrap_or_default(), location));
             }
         }
-        let names = ["position", "normal", "curvature_per_mm"];
+        let names = ["position", "normal", "curvature_per_mm", "uv", "tangent"];
         let expected: Vec<(String, u32)> = GpuVertex::ATTRIBUTES
             .iter()
             .zip(names)

@@ -25,7 +25,7 @@ use cdrf_core::scene::{Material, Projection, Scene, SceneAssets, SceneError};
 use cdrf_core::specular::SpecularLayer;
 use thiserror::Error;
 
-use crate::error::{MaterialError, MeshUploadError, PrepareError, TargetError};
+use crate::error::{MaterialError, MeshUploadError, PrepareError, SurfaceError, TargetError};
 use crate::frame::{Draw, FrameDesc, View};
 use crate::gpu_data::{block_on, f16_bits_to_f32};
 use crate::material::{MaterialDesc, MaterialId};
@@ -34,6 +34,7 @@ use crate::offscreen::OffscreenTarget;
 use crate::readback::{ReadbackError, TextureReadback, readback_bytes};
 use crate::renderer::Renderer;
 use crate::shaders::ENVIRONMENT_SH_ORDER;
+use crate::surface::{SurfaceDesc, SurfaceId};
 use crate::target::{Options, TargetDesc};
 
 /// The colour format of headless renders.
@@ -103,6 +104,16 @@ pub enum HeadlessError {
         path: PathBuf,
         /// Why.
         error: MeshUploadError,
+    },
+    /// A material of the mesh file (its textures) could not be uploaded.
+    #[error("{}: material {}: {error}", path.display(), material.as_deref().unwrap_or("(unnamed)"))]
+    Surface {
+        /// The mesh file.
+        path: PathBuf,
+        /// The glTF material's name.
+        material: Option<String>,
+        /// Why.
+        error: SurfaceError,
     },
     /// The material could not be created.
     #[error("material: {0}")]
@@ -342,6 +353,9 @@ pub struct SceneRenderer<'a> {
     settings: RenderSettings,
     renderer: Renderer,
     mesh: MeshId,
+    /// One draw per glTF primitive: its triangles and its material's surface (empty: one
+    /// untextured draw of the whole mesh).
+    primitives: Vec<(std::ops::Range<u32>, SurfaceId)>,
     world_from_model: Mat4,
     view: View,
     targets: OffscreenTarget,
@@ -380,12 +394,42 @@ impl<'a> SceneRenderer<'a> {
         let mesh = renderer
             .create_mesh(
                 &device.device,
-                &MeshDesc::from_mesh(&assets.mesh, &assets.curvature_per_mm),
+                &MeshDesc::from_mesh(&assets.mesh, &assets.curvature_per_mm)
+                    .with_tangents(assets.surfaces.tangents.as_deref()),
             )
             .map_err(|error| HeadlessError::Mesh {
                 path: scene.mesh.path.clone(),
                 error,
             })?;
+        let surfaces = assets
+            .surfaces
+            .materials
+            .iter()
+            .map(|material| {
+                renderer
+                    .create_surface(
+                        &device.device,
+                        &device.queue,
+                        &SurfaceDesc::from_material(material),
+                    )
+                    .map_err(|error| HeadlessError::Surface {
+                        path: scene.mesh.path.clone(),
+                        material: material.name.clone(),
+                        error,
+                    })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let primitives = assets
+            .surfaces
+            .primitives
+            .iter()
+            .filter_map(|primitive| {
+                Some((
+                    primitive.triangles.clone(),
+                    *surfaces.get(primitive.material)?,
+                ))
+            })
+            .collect();
         let targets = OffscreenTarget::try_new(&device.device, &target, width, height)?;
         if let Some(error) = block_on(scope.pop()) {
             return Err(HeadlessError::Gpu(error.to_string()));
@@ -399,6 +443,7 @@ impl<'a> SceneRenderer<'a> {
             settings: *settings,
             renderer,
             mesh,
+            primitives,
             world_from_model,
             view: View::from_camera(camera, near, far),
             targets,
@@ -471,11 +516,20 @@ impl<'a> SceneRenderer<'a> {
         let scope = device
             .device
             .push_error_scope(wgpu::ErrorFilter::Validation);
-        let draws = [Draw {
-            mesh: self.mesh,
-            material,
-            world_from_model: self.world_from_model,
-        }];
+        let whole = Draw::new(self.mesh, material, self.world_from_model);
+        let draws: Vec<Draw> = if self.primitives.is_empty() {
+            vec![whole]
+        } else {
+            self.primitives
+                .iter()
+                .map(|(triangles, surface)| {
+                    whole
+                        .clone()
+                        .with_triangles(triangles.clone())
+                        .with_surface(*surface)
+                })
+                .collect()
+        };
         // (A copy: frame_commands borrows self mutably.)
         let environment = self.environment.clone();
         let frame = FrameDesc {

@@ -43,7 +43,7 @@
 //!     Light::Directional(DirectionalLight { to_light: Vec3::NEG_X, irradiance: [1.0; 3] }),
 //!     Light::Point(PointLight { position: Vec3::new(0.0, 0.0, 100.0), intensity: [2000.0; 3] }),
 //! ];
-//! let draws = [Draw { mesh, material, world_from_model: Mat4::IDENTITY }];
+//! let draws = [Draw::new(mesh, material, Mat4::IDENTITY)];
 //! let frame = FrameDesc {
 //!     view, lights: &lights, exposure: 1.0, draws: &draws,
 //!     non_local: NonLocal::OFF, mm_per_world_unit: 1.0, environment: None,
@@ -124,18 +124,20 @@ mod pipelines;
 pub mod readback;
 mod renderer;
 pub mod shaders;
+pub mod surface;
 mod target;
 
 pub use cdrf_core::environment::{Environment, ShCoefficients};
 pub use cdrf_core::light::{DirectionalLight, Incidence, Light, NonLocal, PointLight, SpotLight};
 pub use cdrf_core::specular::SpecularLayer;
-pub use error::{MaterialError, MeshUploadError, PrepareError, TargetError};
+pub use error::{MaterialError, MeshUploadError, PrepareError, SurfaceError, TargetError};
 pub use frame::{Draw, FrameDesc, MAX_EXPOSURE, ToCamera, View};
 pub use material::{MaterialDesc, MaterialId};
 pub use mesh::{MeshDesc, MeshId};
 pub use offscreen::OffscreenTarget;
 pub use renderer::Renderer;
 pub use shaders::{ENVIRONMENT_SH_ORDER, MAX_LIGHTS, MAX_SHADOW_LIGHTS};
+pub use surface::{SurfaceDesc, SurfaceId, SurfaceRoughness};
 pub use target::{GaussianEvaluation, LutFiltering, Options, TargetDesc};
 /// The wgpu this crate is built against (use it to avoid version mismatches).
 pub use wgpu;

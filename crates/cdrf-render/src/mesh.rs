@@ -1,7 +1,7 @@
 //! Meshes on the GPU: what the host hands over and what the renderer keeps.
 
 use cdrf_core::Mesh;
-use cdrf_core::glam::Vec3;
+use cdrf_core::glam::{Vec2, Vec3, Vec4};
 use wgpu::util::DeviceExt;
 
 use crate::error::MeshUploadError;
@@ -12,8 +12,8 @@ use crate::gpu_types::GpuVertex;
 pub struct MeshId(pub(crate) u64);
 
 /// A mesh to upload, as slices of the host's own vertex data: triangles with per-vertex
-/// normals and mean curvature. [`MeshDesc::from_mesh`] builds one from a
-/// [`cdrf_core::Mesh`].
+/// normals and mean curvature, and for textured drawing UVs and tangents.
+/// [`MeshDesc::from_mesh`] builds one from a [`cdrf_core::Mesh`].
 #[derive(Clone, Copy, Debug)]
 pub struct MeshDesc<'a> {
     /// Vertex positions, model units.
@@ -26,17 +26,31 @@ pub struct MeshDesc<'a> {
     pub curvature_per_mm: &'a [f32],
     /// Triangles: three indices into the vertices each, counter-clockwise seen from outside.
     pub indices: &'a [u32],
+    /// Texture coordinates, one per position (glTF's `TEXCOORD_0`: `v` down the image); `None`:
+    /// textures read their top-left texel.
+    pub uvs: Option<&'a [Vec2]>,
+    /// Unit tangents along +u with the bitangent's sign in `w` (glTF's `TANGENT`), one per
+    /// position; `None`: normal maps are ignored on this mesh.
+    pub tangents: Option<&'a [Vec4]>,
 }
 
 impl<'a> MeshDesc<'a> {
-    /// The slices of a [`cdrf_core::Mesh`] and its per-vertex curvature.
+    /// The slices of a [`cdrf_core::Mesh`] (with its UVs, if any) and its per-vertex
+    /// curvature; no tangents.
     pub fn from_mesh(mesh: &'a Mesh, curvature_per_mm: &'a [f32]) -> Self {
         Self {
             positions: &mesh.positions,
             normals: &mesh.normals,
             curvature_per_mm,
             indices: mesh.triangles.as_flattened(),
+            uvs: mesh.uvs.as_deref(),
+            tangents: None,
         }
+    }
+
+    /// With tangents (e.g. [`MeshSurfaces::tangents`](cdrf_core::mesh::MeshSurfaces::tangents)).
+    pub fn with_tangents(self, tangents: Option<&'a [Vec4]>) -> Self {
+        Self { tangents, ..self }
     }
 
     fn validate(&self) -> Result<(), MeshUploadError> {
@@ -50,9 +64,12 @@ impl<'a> MeshDesc<'a> {
             });
         }
         for (what, found) in [
-            ("normals", self.normals.len()),
-            ("curvature values", self.curvature_per_mm.len()),
+            ("normals", Some(self.normals.len())),
+            ("curvature values", Some(self.curvature_per_mm.len())),
+            ("UVs", self.uvs.map(<[_]>::len)),
+            ("tangents", self.tangents.map(<[_]>::len)),
         ] {
+            let Some(found) = found else { continue };
             if found != vertices {
                 return Err(MeshUploadError::AttributeCount {
                     what,
@@ -81,6 +98,17 @@ impl<'a> MeshDesc<'a> {
         {
             return Err(MeshUploadError::NonFiniteCurvature { vertex, value });
         }
+        let uvs_finite = self
+            .uvs
+            .is_none_or(|uvs| uvs.iter().all(|uv| uv.is_finite()));
+        let tangents_finite = self
+            .tangents
+            .is_none_or(|tangents| tangents.iter().all(|t| t.is_finite()));
+        if !uvs_finite || !tangents_finite {
+            return Err(MeshUploadError::NonFinite {
+                what: if uvs_finite { "tangent" } else { "UV" },
+            });
+        }
         Ok(())
     }
 }
@@ -100,15 +128,15 @@ impl GpuMesh {
         desc: &MeshDesc<'_>,
     ) -> Result<Self, MeshUploadError> {
         desc.validate()?;
-        let vertices: Vec<GpuVertex> = desc
-            .positions
-            .iter()
-            .zip(desc.normals)
-            .zip(desc.curvature_per_mm)
-            .map(|((&position, &normal), &curvature_per_mm)| GpuVertex {
-                position,
-                normal,
-                curvature_per_mm,
+        let vertices: Vec<GpuVertex> = (0..desc.positions.len())
+            .map(|i| GpuVertex {
+                position: desc.positions[i],
+                normal: desc.normals[i],
+                curvature_per_mm: desc.curvature_per_mm[i],
+                uv: desc.uvs.map_or(Vec2::ZERO, |uvs| uvs[i]),
+                tangent: desc
+                    .tangents
+                    .map_or([0.0; 4], |tangents| tangents[i].to_array()),
             })
             .collect();
         Ok(Self {

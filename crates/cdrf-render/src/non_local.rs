@@ -36,6 +36,8 @@ const SUBSURFACE_TEXELS_PER_CUT: f32 = 1.5;
 /// casts shadows but sends out no inter-reflected light).
 pub(crate) struct ShadowCaster<'a> {
     pub(crate) mesh: &'a GpuMesh,
+    /// The draw's indices in the mesh's index buffer.
+    pub(crate) indices: std::ops::Range<u32>,
     pub(crate) draw_offset: u32,
     pub(crate) material: &'a wgpu::BindGroup,
     pub(crate) surfel_pipeline: Option<&'a wgpu::RenderPipeline>,
@@ -427,7 +429,7 @@ impl NonLocalPass {
                 pass.set_bind_group(1, bindings.draws, &[caster.draw_offset]);
                 pass.set_vertex_buffer(0, caster.mesh.vertices.slice(..));
                 pass.set_index_buffer(caster.mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..caster.mesh.index_count, 0, 0..1);
+                pass.draw_indexed(caster.indices.clone(), 0, 0..1);
             }
         }
         if frame.non_local.interreflection {
@@ -604,7 +606,7 @@ fn record_light_view<'a>(
         pass.set_bind_group(2, bindings.draws, &[caster.draw_offset]);
         pass.set_vertex_buffer(0, caster.mesh.vertices.slice(..));
         pass.set_index_buffer(caster.mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(0..caster.mesh.index_count, 0, instance..instance + 1);
+        pass.draw_indexed(caster.indices.clone(), 0, instance..instance + 1);
     }
 }
 

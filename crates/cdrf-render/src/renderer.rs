@@ -7,7 +7,7 @@ use cdrf_core::glam::{Mat3, Mat4, Vec3};
 use cdrf_core::light::{Light, NonLocal};
 use cdrf_core::specular::SpecularLayer;
 
-use crate::error::{MaterialError, MeshUploadError, PrepareError};
+use crate::error::{MaterialError, MeshUploadError, PrepareError, SurfaceError};
 use crate::frame::{FrameDesc, ToCamera};
 use crate::gpu_types::{GpuDraw, GpuFrame, GpuLight, uniform_layout_entry, uniform_size};
 use crate::material::{GpuMaterialEntry, MaterialDesc, MaterialFactory, MaterialId};
@@ -17,15 +17,19 @@ use crate::pipelines::Pipelines;
 use crate::shaders::{
     ENVIRONMENT_SH_ORDER, GPU_LIGHT_DIRECTIONAL, GPU_LIGHT_POINT, GPU_LIGHT_SPOT, MAX_LIGHTS, Model,
 };
+use crate::surface::{GpuSurface, SurfaceDesc, SurfaceId, SurfaceParameters};
 use crate::target::{Options, TargetDesc};
 
 /// A draw of the last `prepare`: what to bind.
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 struct PreparedDraw {
     model: Model,
     non_local: NonLocal,
     mesh: MeshId,
     material: MaterialId,
+    surface: Option<SurfaceId>,
+    /// The draw's indices in the mesh's index buffer.
+    indices: std::ops::Range<u32>,
     /// The draw's transforms in the draw buffer.
     offset: u32,
 }
@@ -47,11 +51,15 @@ pub struct Renderer {
     frame_buffer: wgpu::Buffer,
     frame_bind_group: wgpu::BindGroup,
     draw_buffer: wgpu::Buffer,
-    draw_bind_group: wgpu::BindGroup,
     draw_stride: u64,
     draw_capacity: u64,
+    /// The surface of draws without one (white, no textures), made by the first `prepare`
+    /// (its textures need the queue); its bind group also serves the non-local passes, which
+    /// read only the draw buffer.
+    default_surface: Option<GpuSurface>,
     meshes: HashMap<MeshId, GpuMesh>,
     materials: HashMap<MaterialId, GpuMaterialEntry>,
+    surfaces: HashMap<SurfaceId, GpuSurface>,
     next_id: u64,
     prepared: Vec<PreparedDraw>,
 }
@@ -82,13 +90,18 @@ impl Renderer {
                 false,
             )],
         });
+        let [t0, t1, t2, s0, s1, s2] = crate::surface::texture_layout_entries();
         let draw_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf draw layout"),
-            entries: &[uniform_layout_entry::<GpuDraw>(
-                0,
-                wgpu::ShaderStages::VERTEX_FRAGMENT,
-                true,
-            )],
+            entries: &[
+                uniform_layout_entry::<GpuDraw>(0, wgpu::ShaderStages::VERTEX_FRAGMENT, true),
+                t0,
+                t1,
+                t2,
+                s0,
+                s1,
+                s2,
+            ],
         });
         let materials_factory = MaterialFactory::new(device);
         let non_local = NonLocalPass::new(device, &draw_layout);
@@ -118,8 +131,7 @@ impl Renderer {
         let alignment = u64::from(device.limits().min_uniform_buffer_offset_alignment);
         let draw_stride = uniform_size::<GpuDraw>().get().next_multiple_of(alignment);
         let draw_capacity = 16;
-        let (draw_buffer, draw_bind_group) =
-            create_draw_buffer(device, &draw_layout, draw_stride, draw_capacity);
+        let draw_buffer = create_draw_buffer(device, draw_stride, draw_capacity);
         Self {
             options,
             target: *target,
@@ -130,11 +142,12 @@ impl Renderer {
             frame_buffer,
             frame_bind_group,
             draw_buffer,
-            draw_bind_group,
             draw_stride,
             draw_capacity,
+            default_surface: None,
             meshes: HashMap::new(),
             materials: HashMap::new(),
+            surfaces: HashMap::new(),
             next_id: 0,
             prepared: Vec::new(),
         }
@@ -250,6 +263,70 @@ impl Renderer {
         self.prepared.retain(|draw| draw.material != material);
     }
 
+    /// Uploads a surface: what an asset paints on a material (base colour tint, normal map,
+    /// specular roughness; see [`crate::surface`]), with a mip chain per texture. Draws name
+    /// it with [`Draw::with_surface`](crate::Draw::with_surface).
+    ///
+    /// ```
+    /// use cdrf_core::{CurvatureOptions, Mesh, mean_curvature_per_mm};
+    /// use cdrf_core::glam::Mat4;
+    /// use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
+    /// use cdrf_render::{Draw, MaterialDesc, MeshDesc, Options, Renderer, SurfaceDesc,
+    ///                   TargetDesc, wgpu};
+    ///
+    /// # let host = HeadlessDevice::new(AdapterPreference::Software)?;
+    /// # let (device, queue) = (&host.device, &host.queue);
+    /// let mut renderer = Renderer::new(device, &TargetDesc::new(wgpu::TextureFormat::Rgba16Float),
+    ///                                  Options::default());
+    /// // A glTF file with two materials (tests/fixtures/textured.glb; mm units).
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/fixtures/textured.glb");
+    /// let (repaired, surfaces) = Mesh::load_with_surfaces(path)?;
+    /// let mesh = &repaired.mesh;
+    /// // Curvature on the welded geometry (UV seams do not cut it).
+    /// let curvature = mean_curvature_per_mm(mesh, &CurvatureOptions::new(1.0))?;
+    /// let mesh_id = renderer.create_mesh(device, &MeshDesc::from_mesh(mesh, &curvature)
+    ///     .with_tangents(surfaces.tangents.as_deref()))?;
+    /// let wax = renderer.create_material(device, queue, &MaterialDesc::Lambert { albedo: [0.8; 3] })?;
+    /// let surface_ids = surfaces.materials.iter()
+    ///     .map(|material| renderer.create_surface(device, queue, &SurfaceDesc::from_material(material)))
+    ///     .collect::<Result<Vec<_>, _>>()?;
+    /// // One draw per primitive: its triangles, its material's surface.
+    /// let draws: Vec<Draw> = surfaces.primitives.iter()
+    ///     .map(|primitive| Draw::new(mesh_id, wax, Mat4::IDENTITY)
+    ///         .with_triangles(primitive.triangles.clone())
+    ///         .with_surface(surface_ids[primitive.material]))
+    ///     .collect();
+    /// assert_eq!(draws.len(), 2);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`SurfaceError`] for a factor out of range or a texture that is empty, short of pixels
+    /// or larger than the device allows.
+    pub fn create_surface(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        desc: &SurfaceDesc<'_>,
+    ) -> Result<SurfaceId, SurfaceError> {
+        let surface = GpuSurface::upload(
+            device,
+            queue,
+            desc,
+            &self.draw_layout,
+            &draw_binding(&self.draw_buffer),
+        )?;
+        let id = SurfaceId(self.next_id());
+        self.surfaces.insert(id, surface);
+        Ok(id)
+    }
+
+    /// Frees a surface; draws naming it are skipped from the next `prepare` on.
+    pub fn remove_surface(&mut self, surface: SurfaceId) {
+        self.surfaces.remove(&surface);
+        self.prepared.retain(|draw| draw.surface != Some(surface));
+    }
+
     /// Uploads the frame's camera, lights and draw transforms and builds the pipelines the
     /// draws need for the current target.
     ///
@@ -283,7 +360,7 @@ impl Renderer {
     ///     },
     ///     lights: &[DirectionalLight { to_light: Vec3::NEG_X, irradiance: [1.0; 3] }.into()],
     ///     exposure: 1.0,
-    ///     draws: &[Draw { mesh, material, world_from_model: Mat4::IDENTITY }],
+    ///     draws: &[Draw::new(mesh, material, Mat4::IDENTITY)],
     ///     // Cast shadows and transmission: prepare returns the shadow pass.
     ///     non_local: NonLocal { shadows: true, transmission: true, ..NonLocal::OFF },
     ///     mm_per_world_unit: 1.0,
@@ -308,16 +385,27 @@ impl Renderer {
         self.prepared.clear();
         self.non_local.clear();
         let frame_uniforms = frame_uniforms(frame)?;
+        if self.default_surface.is_none() {
+            let surface = GpuSurface::upload(
+                device,
+                queue,
+                &SurfaceDesc::default(),
+                &self.draw_layout,
+                &draw_binding(&self.draw_buffer),
+            )
+            .expect("the default surface (1 × 1 textures, unit factors) is valid");
+            self.default_surface = Some(surface);
+        }
 
         let mut draws = vec![0u8; frame.draws.len() * self.draw_stride as usize];
         let mut prepared = Vec::with_capacity(frame.draws.len());
         for (index, draw) in frame.draws.iter().enumerate() {
-            if !self.meshes.contains_key(&draw.mesh) {
+            let Some(mesh) = self.meshes.get(&draw.mesh) else {
                 return Err(PrepareError::UnknownMesh {
                     index,
                     mesh: draw.mesh,
                 });
-            }
+            };
             let Some(material) = self.materials.get(&draw.material) else {
                 return Err(PrepareError::UnknownMaterial {
                     index,
@@ -325,8 +413,27 @@ impl Renderer {
                 });
             };
             let model = material.model;
-            let uniforms =
-                draw_uniforms(draw.world_from_model).ok_or(PrepareError::BadTransform { index })?;
+            let parameters = match draw.surface {
+                None => self.default_parameters(),
+                Some(surface) => {
+                    self.surfaces
+                        .get(&surface)
+                        .ok_or(PrepareError::UnknownSurface { index, surface })?
+                        .parameters
+                }
+            };
+            let triangle_count = mesh.index_count / 3;
+            let triangles = draw.triangles.clone().unwrap_or(0..triangle_count);
+            if triangles.start >= triangles.end || triangles.end > triangle_count {
+                return Err(PrepareError::BadTriangles {
+                    index,
+                    start: triangles.start,
+                    end: triangles.end,
+                    triangles: triangle_count,
+                });
+            }
+            let uniforms = draw_uniforms(draw.world_from_model, &parameters)
+                .ok_or(PrepareError::BadTransform { index })?;
             let offset = index * self.draw_stride as usize;
             draws[offset..offset + size_of::<GpuDraw>()]
                 .copy_from_slice(bytemuck::bytes_of(&uniforms));
@@ -348,6 +455,8 @@ impl Renderer {
                 non_local,
                 mesh: draw.mesh,
                 material: draw.material,
+                surface: draw.surface,
+                indices: 3 * triangles.start..3 * triangles.end,
                 offset: offset as u32,
             });
         }
@@ -356,9 +465,16 @@ impl Renderer {
         let needed = frame.draws.len() as u64;
         if needed > self.draw_capacity {
             let capacity = needed.next_power_of_two();
-            (self.draw_buffer, self.draw_bind_group) =
-                create_draw_buffer(device, &self.draw_layout, self.draw_stride, capacity);
+            self.draw_buffer = create_draw_buffer(device, self.draw_stride, capacity);
             self.draw_capacity = capacity;
+            let binding = draw_binding(&self.draw_buffer);
+            for surface in self
+                .surfaces
+                .values_mut()
+                .chain(self.default_surface.as_mut())
+            {
+                surface.rebind(device, &self.draw_layout, &binding);
+            }
         }
         if !draws.is_empty() {
             queue.write_buffer(&self.draw_buffer, 0, &draws);
@@ -370,6 +486,7 @@ impl Renderer {
                 .filter_map(|draw| {
                     Some(ShadowCaster {
                         mesh: self.meshes.get(&draw.mesh)?,
+                        indices: draw.indices.clone(),
                         draw_offset: draw.offset,
                         material: &self.materials.get(&draw.material)?.bind_group,
                         // The curvature view sends out no light.
@@ -391,7 +508,11 @@ impl Renderer {
                     &casters,
                     SurfelBindings {
                         frame: &self.frame_bind_group,
-                        draws: &self.draw_bind_group,
+                        draws: &self
+                            .default_surface
+                            .as_ref()
+                            .expect("made above")
+                            .bind_group,
                         subsurface_pipeline: prepared
                             .iter()
                             .any(|draw| draw.non_local.subsurface)
@@ -447,9 +568,14 @@ impl Renderer {
         pass.set_bind_group(3, self.non_local.bind_group(), &[]);
         let mut current: Option<(Model, NonLocal)> = None;
         for draw in prepared {
-            let (Some(mesh), Some(material)) = (
+            let surface = match draw.surface {
+                None => self.default_surface.as_ref(),
+                Some(surface) => self.surfaces.get(&surface),
+            };
+            let (Some(mesh), Some(material), Some(surface)) = (
                 self.meshes.get(&draw.mesh),
                 self.materials.get(&draw.material),
+                surface,
             ) else {
                 continue;
             };
@@ -462,11 +588,18 @@ impl Renderer {
                 current = Some(variant);
             }
             pass.set_bind_group(1, &material.bind_group, &[]);
-            pass.set_bind_group(2, &self.draw_bind_group, &[draw.offset]);
+            pass.set_bind_group(2, &surface.bind_group, &[draw.offset]);
             pass.set_vertex_buffer(0, mesh.vertices.slice(..));
             pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+            pass.draw_indexed(draw.indices.clone(), 0, 0..1);
         }
+    }
+
+    fn default_parameters(&self) -> SurfaceParameters {
+        self.default_surface
+            .as_ref()
+            .expect("made at the start of prepare")
+            .parameters
     }
 
     fn next_id(&mut self) -> u64 {
@@ -548,7 +681,7 @@ fn frame_uniforms(frame: &FrameDesc<'_>) -> Result<GpuFrame, PrepareError> {
 
 /// A draw's transforms, or `None` for a transform that is singular, mirroring (it would flip
 /// the winding and cull the wrong faces) or not finite.
-fn draw_uniforms(world_from_model: Mat4) -> Option<GpuDraw> {
+fn draw_uniforms(world_from_model: Mat4, surface: &SurfaceParameters) -> Option<GpuDraw> {
     let linear = Mat3::from_mat4(world_from_model);
     let determinant = linear.determinant();
     if !world_from_model.is_finite() || determinant < 1e-30 {
@@ -557,36 +690,31 @@ fn draw_uniforms(world_from_model: Mat4) -> Option<GpuDraw> {
     Some(GpuDraw {
         world_from_model,
         normal_from_model: Mat4::from_mat3(linear.inverse().transpose()),
+        base_color_factor: surface.base_color_factor,
         curvature_scale: 1.0 / determinant.cbrt(),
-        _pad0: [0.0; 3],
+        normal_scale: surface.normal_scale,
+        roughness_factor: surface.roughness_factor,
+        surface_flags: surface.flags,
+        _pad0: 0.0,
     })
 }
 
-fn create_draw_buffer(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    stride: u64,
-    capacity: u64,
-) -> (wgpu::Buffer, wgpu::BindGroup) {
-    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+fn create_draw_buffer(device: &wgpu::Device, stride: u64, capacity: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("cdrf draw uniforms"),
         size: stride * capacity,
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
-    });
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("cdrf draws"),
-        layout,
-        entries: &[wgpu::BindGroupEntry {
-            binding: 0,
-            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: &buffer,
-                offset: 0,
-                size: Some(uniform_size::<GpuDraw>()),
-            }),
-        }],
-    });
-    (buffer, bind_group)
+    })
+}
+
+/// One draw's window of the draw buffer (moved by the dynamic offset).
+fn draw_binding(buffer: &wgpu::Buffer) -> wgpu::BufferBinding<'_> {
+    wgpu::BufferBinding {
+        buffer,
+        offset: 0,
+        size: Some(uniform_size::<GpuDraw>()),
+    }
 }
 
 /// One light as the shader holds it, or what is wrong with it.

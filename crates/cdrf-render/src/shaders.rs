@@ -78,6 +78,8 @@ pub fn wgsl_constants() -> String {
         ("LIGHT_DIRECTIONAL", GPU_LIGHT_DIRECTIONAL),
         ("LIGHT_POINT", GPU_LIGHT_POINT),
         ("LIGHT_SPOT", GPU_LIGHT_SPOT),
+        ("SURFACE_NORMAL_MAP", crate::surface::SURFACE_NORMAL_MAP),
+        ("SURFACE_ROUGHNESS", crate::surface::SURFACE_ROUGHNESS),
     ] {
         wgsl.push_str(&format!("const {name}: u32 = {value}u;\n"));
     }

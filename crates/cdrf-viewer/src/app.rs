@@ -1,6 +1,7 @@
 //! The viewer's state and its UI: controls on the left, the 3D view in the middle, the
 //! inspector on the right.
 
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -9,7 +10,9 @@ use cdrf_core::glam::{Mat3, Mat4, Vec2, Vec3};
 use cdrf_core::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
 use cdrf_core::specular::{DEFAULT_IOR, DEFAULT_ROUGHNESS_ALPHA, SpecularLayer};
 use cdrf_core::{Cdrf, Filter};
-use cdrf_render::{ENVIRONMENT_SH_ORDER, MaterialDesc, MaterialId, MeshDesc, MeshId};
+use cdrf_render::{
+    ENVIRONMENT_SH_ORDER, MaterialDesc, MaterialId, MeshDesc, MeshId, SurfaceDesc, SurfaceId,
+};
 use egui::{Color32, RichText};
 
 use crate::assets::{
@@ -123,6 +126,9 @@ pub struct Settings {
     pub light_kind: LightKind,
     /// Point and spot lights: distance from the origin, mm.
     pub light_distance_mm: f32,
+    /// Draw a textured mesh with its glTF materials (base colour, normal map, roughness);
+    /// off: every primitive the bare measured material.
+    pub textures: bool,
     /// The first-surface reflection on every model (a rough dielectric boundary).
     pub specular: bool,
     /// Its Beckmann α.
@@ -204,6 +210,8 @@ pub struct Hover {
 #[derive(Default)]
 struct GpuIds {
     mesh: Option<MeshId>,
+    /// The mesh's materials' surfaces, in the order of its `MeshSurfaces::materials`.
+    surfaces: Vec<SurfaceId>,
     measured: Option<MaterialId>,
     gaussian: Option<MaterialId>,
     lambert: Option<MaterialId>,
@@ -305,6 +313,7 @@ impl ViewerApp {
             non_local: files.non_local,
             light_kind: LightKind::Directional,
             light_distance_mm: 150.0,
+            textures: true,
             specular: true,
             specular_roughness: DEFAULT_ROUGHNESS_ALPHA,
             ior: DEFAULT_IOR,
@@ -411,19 +420,45 @@ impl ViewerApp {
     }
 
     fn set_mesh(&mut self, mesh: LoadedMesh, mm_per_unit: Option<f32>) {
-        let device = self.render_state.device.clone();
+        let (device, queue) = (
+            self.render_state.device.clone(),
+            self.render_state.queue.clone(),
+        );
         let old = self.ids.mesh.take();
+        let old_surfaces = std::mem::take(&mut self.ids.surfaces);
         let uploaded = self.with_gpu(|gpu| {
             if let Some(old) = old {
                 gpu.renderer.remove_mesh(old);
             }
-            gpu.renderer.create_mesh(
-                &device,
-                &MeshDesc::from_mesh(&mesh.mesh, &mesh.curvature_per_unit),
-            )
+            for surface in old_surfaces {
+                gpu.renderer.remove_surface(surface);
+            }
+            let surfaces = mesh
+                .surfaces
+                .materials
+                .iter()
+                .map(|material| {
+                    gpu.renderer
+                        .create_surface(&device, &queue, &SurfaceDesc::from_material(material))
+                        .map_err(|error| {
+                            let name = material.name.as_deref().unwrap_or("(unnamed)");
+                            format!("material {name}: {error}")
+                        })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            let desc = MeshDesc::from_mesh(&mesh.mesh, &mesh.curvature_per_unit)
+                .with_tangents(mesh.surfaces.tangents.as_deref());
+            let id = gpu
+                .renderer
+                .create_mesh(&device, &desc)
+                .map_err(|error| error.to_string())?;
+            Ok::<_, String>((id, surfaces))
         });
         match uploaded {
-            Some(Ok(id)) => self.ids.mesh = Some(id),
+            Some(Ok((id, surfaces))) => {
+                self.ids.mesh = Some(id);
+                self.ids.surfaces = surfaces;
+            }
             Some(Err(error)) => {
                 self.error = Some(format!("{}: {error}", mesh.path.display()));
                 return;
@@ -447,6 +482,35 @@ impl ViewerApp {
         self.mesh = Some(mesh);
         self.hover = None;
         self.refresh_curvature_material();
+    }
+
+    /// Whether the mesh has glTF materials of its own (else every primitive is the default).
+    fn mesh_is_textured(&self) -> bool {
+        self.mesh.as_ref().is_some_and(|mesh| {
+            mesh.surfaces
+                .materials
+                .iter()
+                .any(|material| material.source_index.is_some())
+        })
+    }
+
+    /// The mesh's draws: each primitive with its material's surface (none with textures off).
+    fn primitives(&self) -> Vec<(Range<u32>, Option<SurfaceId>)> {
+        let Some(mesh) = &self.mesh else {
+            return Vec::new();
+        };
+        mesh.surfaces
+            .primitives
+            .iter()
+            .map(|primitive| {
+                let surface = self
+                    .settings
+                    .textures
+                    .then(|| self.ids.surfaces.get(primitive.material).copied())
+                    .flatten();
+                (primitive.triangles.clone(), surface)
+            })
+            .collect()
     }
 
     fn set_lut(&mut self, lut: LoadedLut) {
@@ -735,6 +799,10 @@ impl ViewerApp {
         ui.separator();
 
         ui.heading("Surface and sky");
+        if self.mesh_is_textured() {
+            ui.checkbox(&mut self.settings.textures, "asset textures")
+                .on_hover_text("The file's glTF materials on the measured material: base colour as a tint (white = the material itself), normal map, specular roughness. Off: the bare material");
+        }
         ui.checkbox(&mut self.settings.specular, "specular layer")
             .on_hover_text("First-surface reflection of a rough dielectric boundary (Beckmann, dielectric Fresnel) on every model; the light under it is scaled by what the boundary lets through. Off: the cross-polarised look the tables were measured in");
         if self.settings.specular {
@@ -1100,6 +1168,7 @@ impl ViewerApp {
             lights: vec![self.settings.light()],
             exposure: self.settings.exposure,
             mesh: self.ids.mesh,
+            primitives: self.primitives(),
             world_from_model: self.world_from_model(),
             materials,
             layout,

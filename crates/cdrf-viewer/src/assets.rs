@@ -10,6 +10,7 @@ use cdrf_core::gaussian_file::GaussianFileError;
 use cdrf_core::glam::Vec3;
 use cdrf_core::light::NonLocal;
 use cdrf_core::lut_file::LutFileError;
+use cdrf_core::mesh::MeshSurfaces;
 use cdrf_core::scene::{Scene, SceneError};
 use cdrf_core::{
     CdrfLut, CurvatureError, CurvatureOptions, GaussianParameters, LoadError, Mesh, ViewCorrection,
@@ -91,19 +92,25 @@ pub struct LoadedMesh {
     pub radius: f32,
     /// Size of the bounding box, model units.
     pub extent: Vec3,
+    /// Its materials (textures), primitives and tangents: one draw per primitive.
+    pub surfaces: MeshSurfaces,
 }
 
 impl LoadedMesh {
-    /// Reads an OBJ or glTF file and estimates its curvature.
+    /// Reads an OBJ or glTF file with its materials and textures and estimates its curvature
+    /// (on the welded geometry: UV seams do not cut it).
     ///
     /// # Errors
     /// [`AssetError::Mesh`] or [`AssetError::Curvature`].
     pub fn load(path: &Path) -> Result<Self, AssetError> {
-        let mesh = Mesh::load(path)?.mesh;
-        Self::new(path, mesh)
+        let (repaired, surfaces) = Mesh::load_with_surfaces(path)?;
+        Ok(Self {
+            surfaces,
+            ..Self::new(path, repaired.mesh)?
+        })
     }
 
-    /// Estimates the curvature of `mesh` (read from `path`).
+    /// Estimates the curvature of `mesh` (read from `path`); one untextured primitive.
     ///
     /// # Errors
     /// [`AssetError::Curvature`].
@@ -125,11 +132,12 @@ impl LoadedMesh {
             .fold(0.0f32, f32::max);
         Ok(Self {
             path: path.to_owned(),
-            mesh,
             curvature_per_unit,
             center,
             radius,
             extent: max - min,
+            surfaces: MeshSurfaces::single(&mesh),
+            mesh,
         })
     }
 

@@ -9,11 +9,14 @@
 //! depth buffer and MSAA independent of the host's pass, and makes the difference view a
 //! texture lookup.
 
+use std::ops::Range;
+
 use cdrf_core::environment::ShCoefficients;
 use cdrf_core::glam::{Mat4, Vec2};
 use cdrf_core::light::{Light, NonLocal};
 use cdrf_render::{
-    Draw, FrameDesc, MaterialId, MeshId, OffscreenTarget, Options, Renderer, TargetDesc, View,
+    Draw, FrameDesc, MaterialId, MeshId, OffscreenTarget, Options, Renderer, SurfaceId, TargetDesc,
+    View,
 };
 use egui_wgpu::{CallbackResources, CallbackTrait, ScreenDescriptor, wgpu};
 
@@ -244,6 +247,9 @@ pub struct ViewCallback {
     pub exposure: f32,
     /// The mesh, or `None` to show only the background.
     pub mesh: Option<MeshId>,
+    /// The mesh's draws: each primitive's triangles and surface (`None`: untextured); empty:
+    /// the whole mesh, untextured.
+    pub primitives: Vec<(Range<u32>, Option<SurfaceId>)>,
     /// Model → world (mm): the mesh's mm per unit and placement.
     pub world_from_model: Mat4,
     /// Materials of slots A and B (B is ignored by [`Layout::Single`]).
@@ -281,21 +287,29 @@ impl CallbackTrait for ViewCallback {
         let slot_size = slot_size_pixels(self.layout, self.size_points, pixels_per_point);
         gpu.ensure_slots(device, slot_size);
 
-        // One draw per slot that has a mesh and a material; a slot without stays empty.
-        let mut draws = Vec::with_capacity(2);
-        let mut slot_draw = [None; 2];
+        // The mesh's draws (one per primitive) for each slot that has a mesh and a material; a
+        // slot without stays empty.
+        let mut draws = Vec::new();
+        let mut slot_draws = [None, None];
         if let Some(mesh) = self.mesh {
             for (slot, material) in self.materials[..self.layout.slot_count()]
                 .iter()
                 .enumerate()
             {
                 if let Some(material) = *material {
-                    slot_draw[slot] = Some(draws.len());
-                    draws.push(Draw {
-                        mesh,
-                        material,
-                        world_from_model: self.world_from_model,
-                    });
+                    let first = draws.len();
+                    let whole = Draw::new(mesh, material, self.world_from_model);
+                    if self.primitives.is_empty() {
+                        draws.push(whole.clone());
+                    }
+                    for (triangles, surface) in &self.primitives {
+                        let draw = whole.clone().with_triangles(triangles.clone());
+                        draws.push(match surface {
+                            Some(surface) => draw.with_surface(*surface),
+                            None => draw,
+                        });
+                    }
+                    slot_draws[slot] = Some(first..draws.len());
                 }
             }
         }
@@ -316,10 +330,10 @@ impl CallbackTrait for ViewCallback {
         };
 
         if let Some(slots) = &gpu.slots {
-            for (target, draw) in slots.targets.iter().zip(slot_draw) {
+            for (target, slot_draws) in slots.targets.iter().zip(slot_draws) {
                 let mut pass = target.begin_pass(egui_encoder, wgpu::Color::TRANSPARENT);
-                if let (Ok(()), Some(draw)) = (&prepared, draw) {
-                    gpu.renderer.render_draws(&mut pass, draw..draw + 1);
+                if let (Ok(()), Some(slot_draws)) = (&prepared, slot_draws) {
+                    gpu.renderer.render_draws(&mut pass, slot_draws);
                 }
             }
         }
