@@ -426,3 +426,32 @@ fn environment_drop_specular_toggle_and_light_kind() {
     assert!(by_point > 200, "{by_point}");
     assert_golden("viewer_environment", &with_sky, TOLERANCE);
 }
+
+/// The textured test asset dropped on the viewer: drawn with its glTF materials (checker tint,
+/// bumps, the small sphere's tint), and the "asset textures" toggle takes them off.
+#[test]
+fn textured_gltf_drop_shows_its_materials() {
+    let mut harness = harness();
+    let asset = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fixtures/textured.glb");
+    assert!(asset.is_file(), "{} is missing", asset.display());
+    harness
+        .input_mut()
+        .dropped_files
+        .push(Arc::new(Dropped(asset)));
+    harness.run_steps(3);
+    assert_eq!(harness.state().error(), None);
+    // The file is in mm (glTF's metres would make it 60 m across).
+    harness.state_mut().settings_mut().mm_per_unit = 1.0;
+    harness.run_steps(3);
+    assert_eq!(harness.state().error(), None);
+    harness.get_by_label("asset textures");
+    assert!(harness.state().settings().textures);
+    let textured = render(&mut harness);
+    harness.state_mut().settings_mut().textures = false;
+    harness.run_steps(2);
+    let bare = render(&mut harness);
+    let by_textures = changed_pixels(&textured, &bare);
+    println!("pixels changed by the asset's textures: {by_textures}");
+    assert!(by_textures > 5000, "{by_textures}");
+    assert_golden("viewer_textured", &textured, TOLERANCE);
+}
