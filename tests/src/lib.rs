@@ -6,6 +6,7 @@ use std::sync::OnceLock;
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::scene::{Projection, Scene, SceneAssets};
+use cdrf_core::{CurvatureOptions, Mesh, mean_curvature_per_mm};
 use cdrf_render::Options;
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
 
@@ -99,4 +100,32 @@ pub fn sphere_points(scene: &Scene) -> Vec<Option<(Vec3, Vec3)>> {
             })
         })
         .collect()
+}
+
+/// Meshes moved by their offsets as one, with their curvature (mm⁻¹, mesh units mm): the scene
+/// format draws one mesh; a second object is just more triangles.
+///
+/// # Panics
+/// If a part's curvature cannot be estimated.
+pub fn merged(parts: &[(Mesh, Vec3)]) -> (Mesh, Vec<f32>) {
+    let mut mesh = Mesh {
+        positions: Vec::new(),
+        normals: Vec::new(),
+        uvs: None,
+        triangles: Vec::new(),
+    };
+    let mut curvature = Vec::new();
+    for (part, offset) in parts {
+        let base = mesh.positions.len() as u32;
+        curvature.extend(
+            mean_curvature_per_mm(part, &CurvatureOptions::new(1.0))
+                .unwrap_or_else(|error| panic!("{error}")),
+        );
+        mesh.positions
+            .extend(part.positions.iter().map(|p| *p + *offset));
+        mesh.normals.extend(&part.normals);
+        mesh.triangles
+            .extend(part.triangles.iter().map(|t| t.map(|i| i + base)));
+    }
+    (mesh, curvature)
 }

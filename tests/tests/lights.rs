@@ -1,14 +1,17 @@
 //! Point and spot lights (issue 19) on a software adapter: a Lambertian sphere under each
 //! against the analytic radiance (albedo/π · intensity/d² · cone · cos⁺θ at the surface point
-//! each pixel sees), the non-local terms staying with the directional lights whatever the order
-//! of the frame's lights, and golden images of the wax sphere under a point and a spot light.
+//! each pixel sees), each light keeping its own non-local terms whatever the order of the
+//! frame's lights, their cast shadows where the rays from the light say (perspective and cube
+//! maps), and golden images of the wax sphere under a point and a spot light.
 
+use cdrf_core::Mesh;
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
-use cdrf_core::scene::{Material, Scene};
+use cdrf_core::mesh::MeshSurfaces;
+use cdrf_core::scene::{Material, ModelTransform, Projection, Scene};
 use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
-use cdrf_tests::{data_dir, render_predictable, sphere_points, sphere_scene};
+use cdrf_tests::{data_dir, merged, render_predictable, sphere_points, sphere_scene};
 
 const TOLERANCE: Tolerance = Tolerance {
     mean_flip: 0.005,
@@ -96,11 +99,12 @@ fn lambert_sphere_under_a_spot_light_matches_its_cone() {
     assert!(worst < 0.06, "{worst}");
 }
 
-/// Radiance adds over lights: a point light listed before a directional one, with every
-/// non-local term on, renders as the two apart — so the shadow maps, gather and bounce stay
-/// with the directional light (the point light gets the local model), whatever the order.
+/// Radiance adds over lights, each with its own non-local terms: a point light and a directional
+/// one with every term on render as the two apart, in either order; the terms act on the point
+/// light (its perspective map), and its subsurface gather and inter-reflection stay off (those
+/// are for directional lights), so it renders with all terms as with shadows and transmission.
 #[test]
-fn non_local_terms_follow_the_directional_light_whatever_the_order() {
+fn each_light_keeps_its_own_non_local_terms_whatever_the_order() {
     let path = data_dir().join("scenes/torus.toml");
     let mut scene = Scene::load(&path).unwrap_or_else(|error| panic!("{error}"));
     scene.camera.width = 128;
@@ -117,55 +121,214 @@ fn non_local_terms_follow_the_directional_light_whatever_the_order() {
         position: Vec3::new(60.0, 40.0, 80.0),
         intensity: [8000.0; 3],
     });
-    let render = |lights: Vec<Light>| {
+    let render = |lights: Vec<Light>, non_local: NonLocal| {
         let mut scene = scene.clone();
         scene.lights = lights;
+        scene.non_local = non_local;
         render_predictable(&scene, &assets)
     };
-    let both = render(vec![lamp, Light::Directional(sun)]);
-    let sun_alone = render(vec![Light::Directional(sun)]);
-    let lamp_alone = render(vec![lamp]);
-    let mut lamp_local_scene = scene.clone();
-    lamp_local_scene.lights = vec![lamp];
-    lamp_local_scene.non_local = NonLocal::OFF;
-    let lamp_local = render_predictable(&lamp_local_scene, &assets);
-    let (mut difference, mut total, mut lamp_difference) = (0.0f64, 0.0f64, 0.0f64);
-    for (((b, s), l), ll) in both
+    let lamp_first = render(vec![lamp, Light::Directional(sun)], NonLocal::ALL);
+    let sun_first = render(vec![Light::Directional(sun), lamp], NonLocal::ALL);
+    let sun_alone = render(vec![Light::Directional(sun)], NonLocal::ALL);
+    let lamp_alone = render(vec![lamp], NonLocal::ALL);
+    let shadows_and_transmission = NonLocal {
+        shadows: true,
+        transmission: true,
+        ..NonLocal::OFF
+    };
+    let lamp_shadowed = render(vec![lamp], shadows_and_transmission);
+    let lamp_local = render(vec![lamp], NonLocal::OFF);
+    let mut total = 0.0f64;
+    let mut sums = [0.0f64; 4];
+    for (((((a, b), s), l), ls), ll) in lamp_first
         .pixels
         .iter()
+        .zip(&sun_first.pixels)
         .zip(&sun_alone.pixels)
         .zip(&lamp_alone.pixels)
+        .zip(&lamp_shadowed.pixels)
         .zip(&lamp_local.pixels)
     {
         for c in 0..3 {
-            difference += f64::from((b[c] - s[c] - l[c]).abs());
-            total += f64::from(b[c]);
-            lamp_difference += f64::from((l[c] - ll[c]).abs());
+            total += f64::from(a[c]);
+            sums[0] += f64::from((a[c] - b[c]).abs());
+            sums[1] += f64::from((a[c] - s[c] - l[c]).abs());
+            sums[2] += f64::from((l[c] - ls[c]).abs());
+            sums[3] += f64::from((l[c] - ll[c]).abs());
         }
     }
+    let [order, parts, gathers, terms] = sums.map(|d| d / total.max(1e-30));
     println!(
-        "sum of the parts: {:.4} % of the whole; the lamp alone with and without the terms: {:.4} %",
-        100.0 * difference / total,
-        100.0 * lamp_difference / total
+        "of the whole: order {:.4} %, sum of the parts {:.4} %, the lamp's gathers {:.4} %, \
+         the lamp's shadows and transmission {:.2} %",
+        100.0 * order,
+        100.0 * parts,
+        100.0 * gathers,
+        100.0 * terms
     );
     assert!(total > 0.0);
-    assert!(difference / total < 1e-3, "{}", difference / total);
-    assert!(
-        lamp_difference / total < 1e-5,
-        "{}",
-        lamp_difference / total
-    );
-    // And the terms do act on the sun: without them its render differs.
-    let mut local_scene = scene.clone();
-    local_scene.non_local = NonLocal::OFF;
-    let sun_local = render_predictable(&local_scene, &assets);
-    let changed: f64 = sun_alone
-        .pixels
+    assert!(order < 1e-5, "{order}");
+    assert!(parts < 1e-3, "{parts}");
+    assert!(gathers < 1e-5, "{gathers}");
+    assert!(terms > 0.01, "{terms}");
+}
+
+/// The nearest hit of a ray on a set of spheres: (distance, sphere index).
+fn hit_spheres(origin: Vec3, direction: Vec3, spheres: &[(Vec3, f32)]) -> Option<(f32, usize)> {
+    spheres
         .iter()
-        .zip(&sun_local.pixels)
-        .map(|(a, b)| f64::from((a[0] - b[0]).abs()))
-        .sum();
-    assert!(changed > 0.05 * total / 3.0, "{changed}");
+        .enumerate()
+        .filter_map(|(index, &(centre, radius))| {
+            let oc = origin - centre;
+            let b = oc.dot(direction);
+            let discriminant = b * b - (oc.length_squared() - radius * radius);
+            if discriminant < 0.0 {
+                return None;
+            }
+            let t = -b - discriminant.sqrt();
+            (t > 1e-3).then_some((t, index))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+}
+
+/// Per pixel of an orthographic view along −z: which sphere it sees (`None`: background) and,
+/// for a Lambertian sphere under `light`, whether the point is lit from the front (cos θ > 0.2)
+/// and whether the way to the light is blocked by another sphere, with the radiance it has
+/// when unblocked.
+fn shadow_truth(
+    scene: &Scene,
+    spheres: &[(Vec3, f32)],
+    light: &Light,
+) -> Vec<Option<(usize, bool, f32)>> {
+    let Projection::Orthographic { half_height } = scene.camera.projection else {
+        panic!("orthographic view");
+    };
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    let mm_per_px = 2.0 * half_height / height as f32;
+    (0..width * height)
+        .map(|index| {
+            let x = ((index % width) as f32 + 0.5 - width as f32 / 2.0) * mm_per_px;
+            let y = (height as f32 / 2.0 - (index / width) as f32 - 0.5) * mm_per_px;
+            let origin = Vec3::new(x, y, 500.0);
+            let (t, sphere) = hit_spheres(origin, Vec3::NEG_Z, spheres)?;
+            let p = origin - Vec3::Z * t;
+            let n = (p - spheres[sphere].0).normalize();
+            let at = light.incidence(p, 1.0);
+            let cos_theta = n.dot(at.to_light);
+            if cos_theta < 0.2 {
+                return Some((sphere, false, 0.0));
+            }
+            let lit = at.irradiance[0] * cos_theta / std::f32::consts::PI;
+            let to_light = match light {
+                Light::Directional(_) => f32::INFINITY,
+                Light::Point(l) => l.position.distance(p),
+                Light::Spot(l) => l.position.distance(p),
+            };
+            let blocked =
+                hit_spheres(p + n * 0.01, at.to_light, spheres).is_some_and(|(t, _)| t < to_light);
+            Some((sphere, blocked, lit))
+        })
+        .collect()
+}
+
+/// Cast shadows of point and spot lights fall where the rays from the light say: white
+/// Lambertian spheres (hard shadows, read per pixel) — two receivers each with a small sphere
+/// beside it — under a point light among them (a cube map of six faces), a point light beyond
+/// them (one perspective face) and a spot light. Per pixel, the render is dark exactly where the
+/// segment to the light meets another sphere, away from shadow edges (±1 px).
+#[test]
+fn point_and_spot_light_shadows_fall_where_the_rays_say() {
+    let spheres = [
+        (Vec3::new(50.0, 0.0, 0.0), 20.0),
+        (Vec3::new(22.0, 4.0, 2.0), 7.0),
+        (Vec3::new(-50.0, 0.0, 0.0), 20.0),
+        (Vec3::new(-22.0, -4.0, -2.0), 7.0),
+    ];
+    let parts: Vec<(Mesh, Vec3)> = spheres
+        .iter()
+        .map(|&(centre, radius)| (Mesh::icosphere(radius, 5), centre))
+        .collect();
+    let (mesh, curvature_per_mm) = merged(&parts);
+    let (mut scene, mut assets) = sphere_scene(256);
+    if let Projection::Orthographic { half_height } = &mut scene.camera.projection {
+        *half_height = 75.0;
+    }
+    scene.non_local = NonLocal {
+        shadows: true,
+        ..NonLocal::OFF
+    };
+    // (The sphere scene draws its unit sphere 35 × larger; these spheres are in mm.)
+    scene.mesh.transform = ModelTransform::default();
+    assets.surfaces = MeshSurfaces::single(&mesh);
+    assets.mesh = mesh;
+    assets.curvature_per_mm = curvature_per_mm;
+    assets.material = Material::Lambert { albedo: [1.0; 3] };
+    let (width, height) = (scene.camera.width as i64, scene.camera.height as i64);
+    let cases = [
+        (
+            "point light among the spheres (cube)",
+            Light::Point(PointLight {
+                position: Vec3::new(0.0, 0.0, 6.0),
+                intensity: [2000.0; 3],
+            }),
+        ),
+        (
+            "point light beyond them (one face)",
+            Light::Point(PointLight {
+                position: Vec3::new(-150.0, 20.0, 40.0),
+                intensity: [20000.0; 3],
+            }),
+        ),
+        (
+            "spot light",
+            Light::Spot(SpotLight {
+                position: Vec3::new(140.0, -20.0, 40.0),
+                direction: Vec3::new(-1.0, 0.1, -0.25).normalize(),
+                intensity: [20000.0; 3],
+                inner_angle_rad: 35f32.to_radians(),
+                outer_angle_rad: 45f32.to_radians(),
+            }),
+        ),
+    ];
+    for (name, light) in cases {
+        scene.lights = vec![light];
+        let image = render_predictable(&scene, &assets);
+        let truth = shadow_truth(&scene, &spheres, &light);
+        let (mut counted, mut shadowed, mut wrong) = (0, 0, 0);
+        for row in 1..height - 1 {
+            for column in 1..width - 1 {
+                let index = (row * width + column) as usize;
+                let Some((sphere, blocked, lit)) = truth[index] else {
+                    continue;
+                };
+                if lit <= 0.0 {
+                    continue;
+                }
+                // Away from silhouettes, terminators and shadow edges.
+                let steady = [(-1, 0), (1, 0), (0, -1), (0, 1)].iter().all(|(dx, dy)| {
+                    let neighbour = ((row + dy) * width + column + dx) as usize;
+                    matches!(truth[neighbour], Some((s, b, l)) if s == sphere && b == blocked && l > 0.0)
+                });
+                if !steady {
+                    continue;
+                }
+                counted += 1;
+                let radiance = image.pixels[index][0];
+                let dark = radiance < 0.5 * lit;
+                shadowed += usize::from(blocked);
+                wrong += usize::from(dark != blocked);
+            }
+        }
+        let fraction = wrong as f64 / counted.max(1) as f64;
+        println!(
+            "{name}: {counted} lit-facing pixels, {shadowed} in cast shadow, {wrong} wrong \
+             ({:.2} %)",
+            100.0 * fraction
+        );
+        assert!(shadowed > 90, "{name}: {shadowed} cast-shadow pixels");
+        assert!(counted > 1000, "{name}: {counted}");
+        assert!(fraction < 0.01, "{name}: {fraction}");
+    }
 }
 
 fn srgb8(image: &RgbaImage) -> Srgb8Image {

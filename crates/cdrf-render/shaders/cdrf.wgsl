@@ -190,13 +190,24 @@ struct Material {
 }
 
 struct ShadowLight {
-    // World → light space, world units: x, y across the light, z along it (0 at the map's
-    // light-side plane, growing away from the light). Rotation and translation only.
-    light_from_world: mat4x4<f32>,
-    // Half the map's side, world units.
+    // World → face f's light space, world units, rotation and translation only (faces 0 ..
+    // face_count). SHADOW_ORTHOGRAPHIC (face 0 only): x, y across the light, z along it (0 at
+    // the map's light-side plane, growing away from the light). SHADOW_PERSPECTIVE: origin at
+    // the light, z along the face's axis (one face aimed at the draws, or the six faces of a
+    // cube about world ±x, ±y, ±z when the light is among them).
+    light_from_world: array<mat4x4<f32>, MAX_SHADOW_FACES>,
+    // Perspective: the light's position, world units.
+    position: vec3<f32>,
+    // Orthographic: half the map's side, world units; perspective: tan of half a face's field
+    // of view.
     half_extent: f32,
-    // Depth stored as 1, world units.
+    // Depth stored as 1, world units: along z (orthographic) or the distance from the light
+    // (perspective).
     depth_range: f32,
+    projection: u32,
+    face_count: u32,
+    // The shadow map array's layer of face 0.
+    first_layer: u32,
 }
 
 struct Shadows {
@@ -354,6 +365,13 @@ fn gathers_subsurface() -> bool {
     return SUBSURFACE && material.subsurface_reach_mm > 0.0 && MODEL != MODEL_LAMBERT;
 }
 
+// Whether the subsurface gather (and the inter-reflection) reads shadowed light `index`: only
+// directional lights (orthographic maps) have a pyramid and a surfel map; point and spot
+// lights keep V and T(d, μ).
+fn gathers_subsurface_from(index: u32) -> bool {
+    return gathers_subsurface() && shadows.lights[index].projection == SHADOW_ORTHOGRAPHIC;
+}
+
 // The per-vertex terms of shadowed light `index`: visibility and T(d, μ) from the shadow map,
 // and with the subsurface gather G in T's place.
 fn vertex_non_local(
@@ -368,9 +386,9 @@ fn vertex_non_local(
     if SHADOWS || TRANSMISSION {
         terms = non_local_terms(index, world_position, normal, curvature_per_mm);
     }
-    if gathers_subsurface() {
+    if gathers_subsurface_from(index) {
         let light = shadows.lights[index];
-        let p = (light.light_from_world * vec4<f32>(world_position, 1.0)).xyz
+        let p = (light.light_from_world[0] * vec4<f32>(world_position, 1.0)).xyz
             * shadows.mm_per_world_unit;
         terms.transmission = subsurface_gather(index, p);
     }
@@ -606,21 +624,21 @@ fn entry_factor(entry_cosine: f32) -> f32 {
     return 1.0;
 }
 
-// Depth (0–1) of map `index` at `texel + step`, clamped to the map.
-fn neighbour_depth(index: u32, texel: vec2<i32>, step: vec2<i32>) -> f32 {
+// Depth (0–1) of map layer `layer` at `texel + step`, clamped to the map.
+fn neighbour_depth(layer: u32, texel: vec2<i32>, step: vec2<i32>) -> f32 {
     let last = vec2<i32>(i32(shadows.resolution) - 1);
-    return textureLoad(shadow_maps, clamp(texel + step, vec2<i32>(0), last), i32(index), 0);
+    return textureLoad(shadow_maps, clamp(texel + step, vec2<i32>(0), last), i32(layer), 0);
 }
 
-// Cosine between the light and the first surface it meets in column `texel` of map `index`,
-// from the map's depth slope (the gentler one-sided difference per axis, so a depth jump at a
-// silhouette does not count as slope).
-fn entry_cosine(index: u32, texel: vec2<i32>, texel_mm: f32, depth_range_mm: f32) -> f32 {
-    let here = textureLoad(shadow_maps, texel, i32(index), 0);
-    let left = neighbour_depth(index, texel, vec2<i32>(-1, 0));
-    let right = neighbour_depth(index, texel, vec2<i32>(1, 0));
-    let down = neighbour_depth(index, texel, vec2<i32>(0, -1));
-    let up = neighbour_depth(index, texel, vec2<i32>(0, 1));
+// Cosine between the light and the first surface it meets in column `texel` of map layer
+// `layer`, from the map's depth slope (the gentler one-sided difference per axis, so a depth
+// jump at a silhouette does not count as slope); `texel_mm` the texel's width there.
+fn entry_cosine(layer: u32, texel: vec2<i32>, texel_mm: f32, depth_range_mm: f32) -> f32 {
+    let here = textureLoad(shadow_maps, texel, i32(layer), 0);
+    let left = neighbour_depth(layer, texel, vec2<i32>(-1, 0));
+    let right = neighbour_depth(layer, texel, vec2<i32>(1, 0));
+    let down = neighbour_depth(layer, texel, vec2<i32>(0, -1));
+    let up = neighbour_depth(layer, texel, vec2<i32>(0, 1));
     var dx = right - here;
     if abs(here - left) < abs(dx) {
         dx = here - left;
@@ -687,17 +705,63 @@ fn spiral_tap(shape: LocalShape, k: u32, disc_mm: f32) -> Tap {
     return tap;
 }
 
+// The frame the non-local terms of shadowed light `index` work in (mm): an orthographic light's
+// light space (x, y across the light, z along it), or world axes about a point or spot light.
+fn light_frame_point(index: u32, world_position: vec3<f32>) -> vec3<f32> {
+    let light = &shadows.lights[index];
+    if (*light).projection == SHADOW_ORTHOGRAPHIC {
+        return ((*light).light_from_world[0] * vec4<f32>(world_position, 1.0)).xyz
+            * shadows.mm_per_world_unit;
+    }
+    return (world_position - (*light).position) * shadows.mm_per_world_unit;
+}
+
+fn light_frame_vector(index: u32, v: vec3<f32>) -> vec3<f32> {
+    if shadows.lights[index].projection == SHADOW_ORTHOGRAPHIC {
+        return (shadows.lights[index].light_from_world[0] * vec4<f32>(v, 0.0)).xyz;
+    }
+    return v;
+}
+
+// The unit vector along light `index`'s rays at frame point q, away from the light.
+fn light_ray(index: u32, q: vec3<f32>) -> vec3<f32> {
+    if shadows.lights[index].projection == SHADOW_ORTHOGRAPHIC {
+        return vec3<f32>(0.0, 0.0, 1.0);
+    }
+    return q / max(length(q), 1e-6);
+}
+
+// Depth of frame point q as light `index`'s map stores it (mm): along z (orthographic) or
+// from the light (perspective).
+fn light_depth(index: u32, q: vec3<f32>) -> f32 {
+    if shadows.lights[index].projection == SHADOW_ORTHOGRAPHIC {
+        return q.z;
+    }
+    return length(q);
+}
+
+// The width of one map texel across the light at frame point q (mm).
+fn texel_width_mm(index: u32, q: vec3<f32>) -> f32 {
+    let light = &shadows.lights[index];
+    var half_width_mm = (*light).half_extent * shadows.mm_per_world_unit;
+    if (*light).projection != SHADOW_ORTHOGRAPHIC {
+        half_width_mm = (*light).half_extent * light_depth(index, q);
+    }
+    return 2.0 * half_width_mm / f32(shadows.resolution);
+}
+
 // The depth (mm) of the first surface the local shape puts in the tap's column: the tap itself
 // where it faces the light, else the near end of the shape's chord through it; −∞ (−1e30) for
-// a plane facing away (no surface in front of it).
-fn expected_first_surface(shape: LocalShape, tap: Tap) -> f32 {
-    if tap.facing.z > 0.0 {
+// a plane facing away (no surface in front of it). `along`: the cosine between the tap's
+// facing and the light's ray there.
+fn expected_first_surface(shape: LocalShape, tap: Tap, depth_mm: f32, along: f32) -> f32 {
+    if along > 0.0 {
         if shape.curved {
-            return tap.surface.z - 2.0 * shape.radius_mm * tap.facing.z;
+            return depth_mm - 2.0 * shape.radius_mm * along;
         }
         return -1e30;
     }
-    return tap.surface.z;
+    return depth_mm;
 }
 
 // Allowed mismatch between the map and the local shape (mm): the bias, plus (half a texel across
@@ -706,57 +770,89 @@ fn expected_first_surface(shape: LocalShape, tap: Tap) -> f32 {
 // grazing light still sees occluders farther away than the penumbra is wide.
 fn column_tolerance(
     tap: Tap,
+    ray: vec3<f32>,
     curvature_per_mm: f32,
     texel_mm: f32,
     sigma_max_mm: f32,
 ) -> f32 {
     let sag = 0.5 * tap.radius_mm * tap.radius_mm
         * (abs(curvature_per_mm) + CURVATURE_ALLOWANCE_PER_MM);
-    let across = 0.5 * texel_mm * length(tap.facing.xy) + sag;
+    let along = dot(tap.facing, ray);
+    let across = 0.5 * texel_mm * length(tap.facing - along * ray) + sag;
     return shadows.depth_bias_mm
-        + min(across / max(abs(tap.facing.z), 1e-3), sigma_max_mm + 4.0 * texel_mm);
+        + min(across / max(abs(along), 1e-3), sigma_max_mm + 4.0 * texel_mm);
 }
 
-// The texel of map `index` under a light-space position (mm) and the depth (mm) of the first
-// surface stored there (the far plane outside the map).
+// The texel and layer of light `index`'s map under frame point q and the depth (mm) of the
+// first surface stored there (the far plane outside the map).
 struct Column {
     texel: vec2<i32>,
+    layer: u32,
     first_surface_mm: f32,
 }
 
-fn shadow_column(index: u32, position_mm: vec2<f32>, half_extent_mm: f32, depth_range_mm: f32) -> Column {
+fn shadow_column(index: u32, q: vec3<f32>) -> Column {
+    let light = &shadows.lights[index];
     let resolution = f32(shadows.resolution);
-    let uv = vec2<f32>(0.5, 0.5) + vec2<f32>(0.5, -0.5) * position_mm / half_extent_mm;
+    let depth_range_mm = (*light).depth_range * shadows.mm_per_world_unit;
     var column: Column;
-    column.texel = vec2<i32>(floor(uv * resolution));
+    column.layer = (*light).first_layer;
     column.first_surface_mm = depth_range_mm;
+    var uv: vec2<f32>;
+    if (*light).projection == SHADOW_ORTHOGRAPHIC {
+        uv = vec2<f32>(0.5, 0.5)
+            + vec2<f32>(0.5, -0.5) * q.xy / ((*light).half_extent * shadows.mm_per_world_unit);
+    } else {
+        // A cube's face: the axis the ray is nearest (faces +x, −x, +y, −y, +z, −z).
+        var face = 0u;
+        if (*light).face_count == 6u {
+            let a = abs(q);
+            if a.x >= a.y && a.x >= a.z {
+                face = select(1u, 0u, q.x >= 0.0);
+            } else if a.y >= a.z {
+                face = select(3u, 2u, q.y >= 0.0);
+            } else {
+                face = select(5u, 4u, q.z >= 0.0);
+            }
+        }
+        column.layer += face;
+        let local = ((*light).light_from_world[face] * vec4<f32>(q, 0.0)).xyz;
+        if local.z <= 0.0 {
+            column.texel = vec2<i32>(-1);
+            return column;
+        }
+        uv = vec2<f32>(0.5, 0.5)
+            + vec2<f32>(0.5, -0.5) * local.xy / (local.z * (*light).half_extent);
+    }
+    column.texel = vec2<i32>(floor(uv * resolution));
     if all(column.texel >= vec2<i32>(0)) && all(column.texel < vec2<i32>(i32(resolution))) {
-        column.first_surface_mm = textureLoad(shadow_maps, column.texel, i32(index), 0)
+        column.first_surface_mm = textureLoad(shadow_maps, column.texel, i32(column.layer), 0)
             * depth_range_mm;
     }
     return column;
 }
 
 // See the header: compare the shadow map of light `index` around the point with the osculating
-// sphere (or tangent plane) of the point.
+// sphere (or tangent plane) of the point. Directional lights' maps are orthographic; point and
+// spot lights' perspective, their columns the rays from the light and depths the distances
+// from it.
 fn non_local_terms(
     index: u32,
     world_position: vec3<f32>,
     normal: vec3<f32>,
     curvature_per_mm: f32,
 ) -> NonLocalTerms {
-    let light = shadows.lights[index];
-    let mm = shadows.mm_per_world_unit;
-    let half_extent_mm = light.half_extent * mm;
-    let depth_range_mm = light.depth_range * mm;
-    let texel_mm = 2.0 * half_extent_mm / f32(shadows.resolution);
+    let depth_range_mm = shadows.lights[index].depth_range * shadows.mm_per_world_unit;
     let shape = local_shape(
-        (light.light_from_world * vec4<f32>(world_position, 1.0)).xyz * mm,
-        (light.light_from_world * vec4<f32>(normal, 0.0)).xyz,
+        light_frame_point(index, world_position),
+        light_frame_vector(index, normal),
         curvature_per_mm,
     );
     let p = shape.point;
     let n = shape.normal;
+    let p_depth = light_depth(index, p);
+    let n_along = dot(n, light_ray(index, p));
+    let texel_mm = texel_width_mm(index, p);
     let sigma = material.scattering_length_mm;
     let sigma_max = max(sigma.x, max(sigma.y, sigma.z));
     var taps = 1u;
@@ -780,10 +876,12 @@ fn non_local_terms(
     // jump between "fully lit / occluded" and the full average (hard, jagged shadow edges).
     for (var k = 0u; k < taps; k++) {
         let tap = spiral_tap(shape, k, 2.0 * sigma_max);
-        let expected = expected_first_surface(shape, tap);
-        let column = shadow_column(index, tap.surface.xy, half_extent_mm, depth_range_mm);
+        let ray = light_ray(index, tap.surface);
+        let tap_depth = light_depth(index, tap.surface);
+        let expected = expected_first_surface(shape, tap, tap_depth, dot(tap.facing, ray));
+        let column = shadow_column(index, tap.surface);
         let occluder = column.first_surface_mm;
-        let tolerance = column_tolerance(tap, curvature_per_mm, texel_mm, sigma_max);
+        let tolerance = column_tolerance(tap, ray, curvature_per_mm, texel_mm, sigma_max);
         // No surface where the local shape puts one (the tangent plane reaching over a hole or
         // past an edge): this column says nothing about the light near the point.
         if k > 0u && expected > -1e29 && occluder > expected + tolerance {
@@ -798,22 +896,23 @@ fn non_local_terms(
         counted += 1u;
         if occluder < expected - tolerance {
             through_weight += weight;
-            through_mm += tap.surface.z - occluder;
+            through_mm += tap_depth - occluder;
             // The entry cosine at the first occluded column only: read at every occluded
             // column instead, the torus's errors against path tracing moved by ≤ 1.6 points
             // (cast shadow 111.5 % instead of 109.9 %).
             if TRANSMISSION && through_entry_cosine < 0.0 {
-                through_entry_cosine = entry_cosine(index, column.texel, texel_mm, depth_range_mm);
+                through_entry_cosine =
+                    entry_cosine(column.layer, column.texel, texel_mm, depth_range_mm);
             }
         } else {
             unoccluded += weight;
             lit += 1u;
-            if k == 0u && TRANSMISSION && n.z > 0.0 {
+            if k == 0u && TRANSMISSION && n_along > 0.0 {
                 thin = thin_part_transmission(
-                    index,
+                    column.layer,
                     column.texel,
-                    p.z - occluder,
-                    p.z - expected - tolerance,
+                    p_depth - occluder,
+                    p_depth - expected - tolerance,
                     texel_mm,
                     depth_range_mm,
                 );
@@ -822,7 +921,7 @@ fn non_local_terms(
     }
     var terms: NonLocalTerms;
     terms.visibility = unoccluded / weights;
-    terms.transmission = thin * smoothstep(0.0, THIN_PART_FADE_END, n.z);
+    terms.transmission = thin * smoothstep(0.0, THIN_PART_FADE_END, n_along);
     if SHADOWS && TRANSMISSION && counted > lit {
         // Light through the occluders, at their mean thickness and entry cosine (one T per
         // light).
@@ -838,7 +937,7 @@ fn non_local_terms(
 // the map shows, so on the sphere itself the difference vanishes whatever the error of the
 // slope estimate (read only where it is needed).
 fn thin_part_transmission(
-    index: u32,
+    layer: u32,
     texel: vec2<i32>,
     thickness_mm: f32,
     expected_thickness_mm: f32,
@@ -850,7 +949,7 @@ fn thin_part_transmission(
         vec3<f32>(0.0),
     );
     if any(thin > vec3<f32>(0.0)) {
-        return thin * entry_factor(entry_cosine(index, texel, texel_mm, depth_range_mm));
+        return thin * entry_factor(entry_cosine(layer, texel, texel_mm, depth_range_mm));
     }
     return thin;
 }
@@ -921,7 +1020,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                 } else {
                     terms = vertex_terms(in, i);
                 }
-                if gathers_subsurface() {
+                if gathers_subsurface_from(i) {
                     // The far field the table holds through the osculating sphere: the gather
                     // brings it from the surface that is there.
                     f -= subsurface_sphere_value(in.curvature_per_mm, theta);
@@ -1117,9 +1216,12 @@ fn interreflected_radiance(
     var irradiance = vec3<f32>(0.0);
     for (var i = 0u; i < count; i++) {
         let light = shadows.lights[i];
-        let p = (light.light_from_world * vec4<f32>(world_position, 1.0)).xyz
+        if light.projection != SHADOW_ORTHOGRAPHIC {
+            continue;
+        }
+        let p = (light.light_from_world[0] * vec4<f32>(world_position, 1.0)).xyz
             * shadows.mm_per_world_unit;
-        let n = (light.light_from_world * vec4<f32>(normal, 0.0)).xyz;
+        let n = (light.light_from_world[0] * vec4<f32>(normal, 0.0)).xyz;
         irradiance += frame.lights[i].irradiance_or_intensity * surfel_irradiance(i, p, n);
     }
     var response = local_value(curvature_per_mm, 1.0, 0.0);
@@ -1264,7 +1366,7 @@ struct SurfelOut {
 fn vs_surfel(vertex: VertexIn, @builtin(instance_index) light: u32) -> SurfelOut {
     let camera = shadows.lights[light];
     let world = draw.world_from_model * vec4<f32>(vertex.position, 1.0);
-    let light_space = (camera.light_from_world * world).xyz;
+    let light_space = (camera.light_from_world[0] * world).xyz;
     var out: SurfelOut;
     out.clip = vec4<f32>(
         light_space.xy / camera.half_extent,
@@ -1273,7 +1375,7 @@ fn vs_surfel(vertex: VertexIn, @builtin(instance_index) light: u32) -> SurfelOut
     );
     out.light_position_mm = light_space * shadows.mm_per_world_unit;
     let normal = (draw.normal_from_model * vec4<f32>(vertex.normal, 0.0)).xyz;
-    out.light_normal = (camera.light_from_world * vec4<f32>(normal, 0.0)).xyz;
+    out.light_normal = (camera.light_from_world[0] * vec4<f32>(normal, 0.0)).xyz;
     out.curvature_per_mm = vertex.curvature_per_mm * draw.curvature_scale;
     out.light = light;
     return out;

@@ -9,7 +9,7 @@ use cdrf_core::glam::{Mat4, Vec2, Vec3};
 
 use crate::shaders::{
     ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_COEFFICIENTS, ENVIRONMENT_ZONAL_ROWS, MAX_LIGHTS,
-    MAX_SHADOW_LIGHTS, PENUMBRA_TAPS, SUBSURFACE_KERNEL_SAMPLES,
+    MAX_SHADOW_FACES, MAX_SHADOW_LIGHTS, PENUMBRA_TAPS, SUBSURFACE_KERNEL_SAMPLES,
 };
 
 /// Name, size and named field offsets of a struct, for the layout test.
@@ -124,10 +124,13 @@ gpu_struct! {
 gpu_struct! {
     /// One light's camera of the shadow maps (`ShadowLight`).
     GpuShadowLight as "ShadowLight" {
-        light_from_world: Mat4,
+        light_from_world: [Mat4; MAX_SHADOW_FACES],
+        position: Vec3,
         half_extent: f32,
         depth_range: f32,
-        _pad0: [f32; 2],
+        projection: u32,
+        face_count: u32,
+        first_layer: u32,
     }
 }
 
@@ -150,6 +153,8 @@ gpu_struct! {
     /// The shadow pass's per-light transform: its bind group 0 (`ShadowPass`).
     GpuShadowPass as "ShadowPass" {
         clip_from_world: Mat4,
+        light_position: Vec3,
+        inverse_depth_range: f32,
     }
 }
 

@@ -105,6 +105,15 @@ pub enum HeadlessError {
         /// Why.
         error: MeshUploadError,
     },
+    /// The assets' primitives do not cover the mesh's triangles in order, once each, or name
+    /// a material that is not there (surfaces of another mesh).
+    #[error("{}: the surfaces' primitives do not cover the mesh's {triangles} triangles", path.display())]
+    Surfaces {
+        /// The mesh file.
+        path: PathBuf,
+        /// Triangles in the mesh.
+        triangles: u32,
+    },
     /// A material of the mesh file (its textures) could not be uploaded.
     #[error("{}: material {}: {error}", path.display(), material.as_deref().unwrap_or("(unnamed)"))]
     Surface {
@@ -401,6 +410,23 @@ impl<'a> SceneRenderer<'a> {
                 path: scene.mesh.path.clone(),
                 error,
             })?;
+        let triangles = assets.mesh.triangles.len() as u32;
+        let mut covered = 0;
+        for primitive in &assets.surfaces.primitives {
+            if primitive.triangles.start != covered
+                || primitive.triangles.end <= covered
+                || assets.surfaces.materials.get(primitive.material).is_none()
+            {
+                break;
+            }
+            covered = primitive.triangles.end;
+        }
+        if !assets.surfaces.primitives.is_empty() && covered != triangles {
+            return Err(HeadlessError::Surfaces {
+                path: scene.mesh.path.clone(),
+                triangles,
+            });
+        }
         let surfaces = assets
             .surfaces
             .materials

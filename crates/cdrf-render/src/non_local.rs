@@ -1,5 +1,6 @@
-//! The non-local terms' GPU side: an orthographic light camera per shadowed light fitted to the
-//! frame's draws, the depth-only shadow pass that renders their maps, the surfel pass that
+//! The non-local terms' GPU side: a light camera per shadowed light fitted to the frame's draws
+//! (orthographic for a directional light; for a point or spot light a perspective face aimed at
+//! the draws, or a cube of six when the light is among them), the depth-only shadow pass that renders their maps, the surfel pass that
 //! renders the lit surface the inter-reflection gathers from, the subsurface pyramid (the light
 //! entering the lit surface, for the subsurface gather), and the bind group (group 3)
 //! through which the shading pipelines read them. What the shader does with the maps is
@@ -7,14 +8,18 @@
 
 use std::collections::HashMap;
 
-use cdrf_core::glam::{Mat3, Mat4, Vec3};
+use cdrf_core::glam::{Mat3, Mat4, Vec3, Vec4};
+use cdrf_core::light::Light;
 
 use crate::frame::{Draw, FrameDesc};
 use crate::gpu_types::{
     GpuShadowLight, GpuShadowPass, GpuShadows, GpuVertex, uniform_layout_entry, uniform_size,
 };
 use crate::mesh::{GpuMesh, MeshId};
-use crate::shaders::{MAX_SHADOW_LIGHTS, shadow_shader_source, subsurface_reduce_shader_source};
+use crate::shaders::{
+    GPU_SHADOW_ORTHOGRAPHIC, GPU_SHADOW_PERSPECTIVE, MAX_SHADOW_FACES, MAX_SHADOW_LIGHTS,
+    shadow_shader_source, subsurface_reduce_shader_source,
+};
 use crate::target::Options;
 
 /// The shadow maps' depth format.
@@ -139,12 +144,12 @@ impl SubsurfacePyramid {
         }
     }
 
-    /// Renders level 0 of the first `lights` lights (`vs_surfel` / `fs_subsurface_map`) and
-    /// reduces it level by level.
+    /// Renders level 0 of the shadowed lights marked `true` (`vs_surfel` /
+    /// `fs_subsurface_map`; the directional ones) and reduces it level by level.
     fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        lights: usize,
+        lights: &[bool],
         casters: &[ShadowCaster<'_>],
         bindings: &SurfelBindings<'_>,
         surfel_pass_bind_group: &wgpu::BindGroup,
@@ -153,7 +158,13 @@ impl SubsurfacePyramid {
         let Some(pipeline) = bindings.subsurface_pipeline else {
             return;
         };
-        for (light, views) in self.level_views.iter().take(lights).enumerate() {
+        for (light, (views, _)) in self
+            .level_views
+            .iter()
+            .zip(lights)
+            .enumerate()
+            .filter(|(_, (_, on))| **on)
+        {
             let Some(level0) = views.first() else {
                 return;
             };
@@ -214,7 +225,10 @@ pub(crate) struct NonLocalPass {
     pass_buffer: wgpu::Buffer,
     pass_bind_group: wgpu::BindGroup,
     pass_stride: u64,
+    /// The shadow pass of orthographic faces (depth only) and of perspective ones (the distance
+    /// from the light as depth).
     pipeline: wgpu::RenderPipeline,
+    distance_pipeline: wgpu::RenderPipeline,
     /// Lights whose shadow map the last `prepare` rendered.
     shadowed_lights: usize,
     reduce_layout: wgpu::BindGroupLayout,
@@ -276,12 +290,12 @@ impl NonLocalPass {
             }],
         });
         let reduce_pipeline = create_reduce_pipeline(device, &reduce_layout);
-        let no_shadows = ShadowMaps::new(device, &layout, &reduce_layout, &uniforms, [1, 1, 1]);
+        let no_shadows = ShadowMaps::new(device, &layout, &reduce_layout, &uniforms, [1, 1, 1, 1]);
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf shadow pass layout"),
             entries: &[uniform_layout_entry::<GpuShadowPass>(
                 0,
-                wgpu::ShaderStages::VERTEX,
+                wgpu::ShaderStages::VERTEX_FRAGMENT,
                 true,
             )],
         });
@@ -290,7 +304,7 @@ impl NonLocalPass {
         let pass_stride = pass_size.get().next_multiple_of(alignment);
         let pass_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("cdrf shadow pass uniforms"),
-            size: pass_stride * MAX_SHADOW_LIGHTS as u64,
+            size: pass_stride * (MAX_SHADOW_LIGHTS * MAX_SHADOW_FACES) as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -306,7 +320,8 @@ impl NonLocalPass {
                 }),
             }],
         });
-        let pipeline = create_shadow_pipeline(device, &[&pass_layout, draw_layout]);
+        let pipeline = create_shadow_pipeline(device, &[&pass_layout, draw_layout], false);
+        let distance_pipeline = create_shadow_pipeline(device, &[&pass_layout, draw_layout], true);
         Self {
             layout,
             uniforms,
@@ -316,6 +331,7 @@ impl NonLocalPass {
             pass_bind_group,
             pass_stride,
             pipeline,
+            distance_pipeline,
             shadowed_lights: 0,
             reduce_layout,
             reduce_pipeline,
@@ -362,7 +378,20 @@ impl NonLocalPass {
         } else {
             1
         };
-        let sizes = [resolution, surfel_resolution, subsurface_resolution];
+        // The first MAX_SHADOW_LIGHTS lights in shading order (directional first), each with
+        // its camera and its faces' layers.
+        let cameras: Vec<LightCamera> = frame
+            .lights_in_shading_order()
+            .take(MAX_SHADOW_LIGHTS)
+            .map(|light| LightCamera::fit(light, centre, radius))
+            .collect();
+        let layer_count: usize = cameras.iter().map(|c| c.faces.len()).sum();
+        let sizes = [
+            resolution,
+            surfel_resolution,
+            subsurface_resolution,
+            layer_count.max(1) as u32,
+        ];
         if self.maps.as_ref().map(ShadowMaps::sizes) != Some(sizes) {
             self.maps = Some(ShadowMaps::new(
                 device,
@@ -373,7 +402,7 @@ impl NonLocalPass {
             ));
         }
         let maps = self.maps.as_ref().expect("created above");
-        let lights = frame.directional_lights().count().min(MAX_SHADOW_LIGHTS);
+        let lights = cameras.len();
         let mut shadows = GpuShadows {
             mm_per_world_unit: frame.mm_per_world_unit,
             depth_bias_mm: options.shadow_bias_mm.max(0.0),
@@ -384,21 +413,37 @@ impl NonLocalPass {
             subsurface_levels: maps.subsurface.levels,
             ..bytemuck::Zeroable::zeroed()
         };
-        let mut passes = vec![0u8; (self.pass_stride * MAX_SHADOW_LIGHTS as u64) as usize];
-        for (index, light) in frame.directional_lights().take(lights).enumerate() {
-            let camera = LightCamera::fit(light.to_light, centre, radius);
+        let mut passes =
+            vec![0u8; (self.pass_stride * (MAX_SHADOW_LIGHTS * MAX_SHADOW_FACES) as u64) as usize];
+        // (layer, perspective?) of every face, in layer order.
+        let mut faces = Vec::with_capacity(layer_count);
+        for (index, camera) in cameras.iter().enumerate() {
+            let mut light_from_world = [Mat4::IDENTITY; MAX_SHADOW_FACES];
+            light_from_world[..camera.faces.len()].copy_from_slice(&camera.faces);
             shadows.lights[index] = GpuShadowLight {
-                light_from_world: camera.light_from_world,
+                light_from_world,
+                position: camera.position.unwrap_or(Vec3::ZERO),
                 half_extent: camera.half_extent,
-                depth_range: camera.depth_range(),
-                _pad0: [0.0; 2],
+                depth_range: camera.depth_range,
+                projection: if camera.position.is_some() {
+                    GPU_SHADOW_PERSPECTIVE
+                } else {
+                    GPU_SHADOW_ORTHOGRAPHIC
+                },
+                face_count: camera.faces.len() as u32,
+                first_layer: faces.len() as u32,
             };
-            let pass = GpuShadowPass {
-                clip_from_world: camera.clip_from_world(),
-            };
-            let start = index * self.pass_stride as usize;
-            passes[start..start + size_of::<GpuShadowPass>()]
-                .copy_from_slice(bytemuck::bytes_of(&pass));
+            for face in 0..camera.faces.len() {
+                let pass = GpuShadowPass {
+                    clip_from_world: camera.clip_from_world(face),
+                    light_position: camera.position.unwrap_or(Vec3::ZERO),
+                    inverse_depth_range: 1.0 / camera.depth_range,
+                };
+                let start = faces.len() * self.pass_stride as usize;
+                passes[start..start + size_of::<GpuShadowPass>()]
+                    .copy_from_slice(bytemuck::bytes_of(&pass));
+                faces.push(camera.position.is_some());
+            }
         }
         queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&shadows));
         queue.write_buffer(&self.pass_buffer, 0, &passes);
@@ -406,7 +451,7 @@ impl NonLocalPass {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("cdrf shadow pass"),
         });
-        for (index, layer) in maps.layers.iter().take(lights).enumerate() {
+        for (index, (layer, perspective)) in maps.layers.iter().zip(&faces).enumerate() {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("cdrf shadow map"),
                 color_attachments: &[],
@@ -422,7 +467,11 @@ impl NonLocalPass {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_pipeline(&self.pipeline);
+            pass.set_pipeline(if *perspective {
+                &self.distance_pipeline
+            } else {
+                &self.pipeline
+            });
             let offset = (index as u64 * self.pass_stride) as u32;
             pass.set_bind_group(0, &self.pass_bind_group, &[offset]);
             for caster in casters {
@@ -432,12 +481,14 @@ impl NonLocalPass {
                 pass.draw_indexed(caster.indices.clone(), 0, 0..1);
             }
         }
+        // The surfel maps and the subsurface pyramid are for directional lights only.
+        let orthographic: Vec<bool> = cameras.iter().map(|c| c.position.is_none()).collect();
         if frame.non_local.interreflection {
-            maps.record_surfel_pass(&mut encoder, lights, casters, &bindings);
+            maps.record_surfel_pass(&mut encoder, &orthographic, casters, &bindings);
         }
         maps.subsurface.record(
             &mut encoder,
-            lights,
+            &orthographic,
             casters,
             &bindings,
             &maps.surfel_pass_bind_group,
@@ -452,15 +503,20 @@ impl ShadowMaps {
     /// The shadow maps (one depth layer per shadowed light, `resolution` texels per side), the
     /// surfel maps (`surfel_resolution`) and the shading pipelines' bind group 3 reading them.
     /// `sizes`: texels per side of the shadow maps, the surfel maps and the subsurface
-    /// pyramid's level 0.
+    /// pyramid's level 0, and the shadow maps' layers (one per face).
     fn new(
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
         reduce_layout: &wgpu::BindGroupLayout,
         uniforms: &wgpu::Buffer,
-        sizes: [u32; 3],
+        sizes: [u32; 4],
     ) -> Self {
-        let [resolution, surfel_resolution, subsurface_resolution] = sizes;
+        let [
+            resolution,
+            surfel_resolution,
+            subsurface_resolution,
+            layer_count,
+        ] = sizes;
         let subsurface = SubsurfacePyramid::new(device, reduce_layout, subsurface_resolution);
         let blank_pyramid = SubsurfacePyramid::new(device, reduce_layout, 1);
         let (shadow_array, layers) = layered_texture(
@@ -468,7 +524,7 @@ impl ShadowMaps {
             "cdrf shadow maps",
             SHADOW_FORMAT,
             resolution,
-            MAX_SHADOW_LIGHTS as u32,
+            layer_count,
         );
         let surfel_maps: [_; SURFEL_TARGETS] = std::array::from_fn(|_| {
             layered_texture(
@@ -529,24 +585,31 @@ impl ShadowMaps {
         }
     }
 
-    fn sizes(&self) -> [u32; 3] {
+    fn sizes(&self) -> [u32; 4] {
         [
             self.resolution,
             self.surfel_resolution,
             self.subsurface.resolution,
+            self.layers.len() as u32,
         ]
     }
 
-    /// Renders the first surface each of the first `lights` lights meets into its surfel map
-    /// (`vs_surfel` / `fs_surfel`; the light is the instance index).
+    /// Renders the first surface each shadowed light marked `true` (the directional ones)
+    /// meets into its surfel map (`vs_surfel` / `fs_surfel`; the light is the instance index).
     fn record_surfel_pass(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        lights: usize,
+        lights: &[bool],
         casters: &[ShadowCaster<'_>],
         bindings: &SurfelBindings<'_>,
     ) {
-        for (light, views) in self.surfel_layers.iter().take(lights).enumerate() {
+        for (light, (views, _)) in self
+            .surfel_layers
+            .iter()
+            .zip(lights)
+            .enumerate()
+            .filter(|(_, (_, on))| **on)
+        {
             // Zero exitance: no surface.
             record_light_view(
                 encoder,
@@ -643,54 +706,116 @@ fn depth_target(device: &wgpu::Device, label: &'static str, side: u32) -> wgpu::
         .create_view(&Default::default())
 }
 
-/// An orthographic camera looking along a directional light, fitted to a bounding sphere.
+/// A shadowed light's camera, fitted to the draws' bounding sphere: orthographic along a
+/// directional light; for a point or spot light perspective faces about its position — one
+/// aimed at the sphere when the light is outside it (the sphere seen within 60° of the axis),
+/// else a cube of six (+x, −x, +y, −y, +z, −z, the order the shader picks faces in).
 struct LightCamera {
-    /// World → light space: x, y across the light, z along it from the map's light-side plane.
-    light_from_world: Mat4,
-    /// Half the map's side, world units.
+    /// World → each face's light space, world units (rotation and translation): x, y across
+    /// the light, z along it — from the map's light-side plane (orthographic) or from the light
+    /// (perspective).
+    faces: Vec<Mat4>,
+    /// The light's position (perspective), or `None` (orthographic).
+    position: Option<Vec3>,
+    /// Orthographic: half the map's side, world units; perspective: tan of half a face's field
+    /// of view.
     half_extent: f32,
+    /// Depth stored as 1, world units.
+    depth_range: f32,
 }
 
+/// The largest angle off a perspective face's axis at which it sees the whole bounding sphere;
+/// nearer lights get a cube.
+const SINGLE_FACE_HALF_ANGLE_DEG: f32 = 60.0;
+
 impl LightCamera {
-    fn fit(to_light: Vec3, centre: Vec3, radius: f32) -> Self {
-        let forward = -to_light.normalize();
-        let helper = if forward.y.abs() < 0.9 {
-            Vec3::Y
-        } else {
-            Vec3::X
-        };
-        let x = helper.cross(forward).normalize();
-        let y = forward.cross(x);
+    fn fit(light: &Light, centre: Vec3, radius: f32) -> Self {
         let half_extent = Self::half_extent_for(radius);
-        let rotation = Mat4::from_mat3(Mat3::from_cols(x, y, forward).transpose());
-        let light_from_world = Mat4::from_translation(Vec3::new(0.0, 0.0, half_extent))
-            * rotation
-            * Mat4::from_translation(-centre);
-        Self {
-            light_from_world,
-            half_extent,
+        let position = match light {
+            Light::Directional(light) => {
+                let light_from_world = Mat4::from_translation(Vec3::new(0.0, 0.0, half_extent))
+                    * looking_along(-light.to_light.normalize())
+                    * Mat4::from_translation(-centre);
+                return Self {
+                    faces: vec![light_from_world],
+                    position: None,
+                    half_extent,
+                    depth_range: 2.0 * half_extent,
+                };
+            }
+            Light::Point(light) => light.position,
+            Light::Spot(light) => light.position,
+        };
+        let offset = centre - position;
+        let distance = offset.length();
+        let depth_range = (distance + half_extent).max(1e-6);
+        let from_light = Mat4::from_translation(-position);
+        if half_extent < distance * SINGLE_FACE_HALF_ANGLE_DEG.to_radians().sin() {
+            let forward = offset / distance;
+            Self {
+                faces: vec![looking_along(forward) * from_light],
+                position: Some(position),
+                half_extent: half_extent / (distance * distance - half_extent * half_extent).sqrt(),
+                depth_range,
+            }
+        } else {
+            let axes = [
+                Vec3::X,
+                Vec3::NEG_X,
+                Vec3::Y,
+                Vec3::NEG_Y,
+                Vec3::Z,
+                Vec3::NEG_Z,
+            ];
+            Self {
+                faces: axes.map(|axis| looking_along(axis) * from_light).to_vec(),
+                position: Some(position),
+                half_extent: 1.0,
+                depth_range,
+            }
         }
     }
 
-    /// Half the map's side for a bounding sphere of `radius` (world units): a margin so the
-    /// sphere's rim is not on the map's edge or its far plane.
+    /// Half the orthographic map's side for a bounding sphere of `radius` (world units): a
+    /// margin so the sphere's rim is not on the map's edge or its far plane.
     fn half_extent_for(radius: f32) -> f32 {
         radius * 1.02
     }
 
-    /// Depth that maps to 1, world units: the bounding sphere's diameter.
-    fn depth_range(&self) -> f32 {
-        2.0 * self.half_extent
+    /// Face `face`'s light space → the shadow pass's clip space. Orthographic: depth = z /
+    /// depth range; perspective: x / (z·tan), y / (z·tan), clipped to 0.1 % … 100 % of the
+    /// depth range (the fragment shader writes the distance from the light as depth).
+    fn clip_from_world(&self, face: usize) -> Mat4 {
+        let light_from_world = self.faces[face];
+        if self.position.is_none() {
+            return Mat4::from_scale(Vec3::new(
+                1.0 / self.half_extent,
+                1.0 / self.half_extent,
+                1.0 / self.depth_range,
+            )) * light_from_world;
+        }
+        let (far, near) = (self.depth_range, self.depth_range * 1e-3);
+        let t = self.half_extent;
+        let projection = Mat4::from_cols(
+            Vec4::new(1.0 / t, 0.0, 0.0, 0.0),
+            Vec4::new(0.0, 1.0 / t, 0.0, 0.0),
+            Vec4::new(0.0, 0.0, far / (far - near), 1.0),
+            Vec4::new(0.0, 0.0, -near * far / (far - near), 0.0),
+        );
+        projection * light_from_world
     }
+}
 
-    /// Light space → the shadow pass's clip space (depth = z / depth range).
-    fn clip_from_world(&self) -> Mat4 {
-        Mat4::from_scale(Vec3::new(
-            1.0 / self.half_extent,
-            1.0 / self.half_extent,
-            1.0 / self.depth_range(),
-        )) * self.light_from_world
-    }
+/// The rotation whose z axis is `forward` (unit) and x, y span the plane across it.
+fn looking_along(forward: Vec3) -> Mat4 {
+    let helper = if forward.y.abs() < 0.9 {
+        Vec3::Y
+    } else {
+        Vec3::X
+    };
+    let x = helper.cross(forward).normalize();
+    let y = forward.cross(x);
+    Mat4::from_mat3(Mat3::from_cols(x, y, forward).transpose())
 }
 
 /// The subsurface pyramid's level 0 for a map `side_mm` wide: the power of two that makes the
@@ -829,6 +954,7 @@ fn layered_texture(
 fn create_shadow_pipeline(
     device: &wgpu::Device,
     layouts: &[&wgpu::BindGroupLayout],
+    distance_as_depth: bool,
 ) -> wgpu::RenderPipeline {
     let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("cdrf shadow shader"),
@@ -866,7 +992,12 @@ fn create_shadow_pipeline(
             bias: Default::default(),
         }),
         multisample: Default::default(),
-        fragment: None,
+        fragment: distance_as_depth.then(|| wgpu::FragmentState {
+            module: &shader,
+            entry_point: Some("fs_shadow_distance"),
+            compilation_options: Default::default(),
+            targets: &[],
+        }),
         multiview_mask: None,
         cache: None,
     })

@@ -6,9 +6,12 @@
 
 /// Most lights in one frame.
 pub const MAX_LIGHTS: usize = 16;
-/// Lights with a shadow map: the first directional lights of a frame. Later ones, and point and
-/// spot lights, shade with the local model only.
+/// Lights with a shadow map: the first four of a frame, directional lights first (an
+/// orthographic map each; point and spot lights a perspective map, or a cube of six when the
+/// light is among the draws). Later ones shade with the local model only.
 pub const MAX_SHADOW_LIGHTS: usize = 4;
+/// Faces of a shadowed light's map at most (a cube).
+pub(crate) const MAX_SHADOW_FACES: usize = 6;
 /// Penumbra taps per shadowed light: the centre and a Vogel spiral out to 2σ, the same spiral
 /// at every vertex and every tap read. Not fewer taps turned per vertex, nor a few probes
 /// deciding whether to read the rest: neighbouring vertices that read different taps disagree
@@ -34,6 +37,10 @@ pub(crate) const ENVIRONMENT_ZONAL_ROWS: usize = 64;
 pub(crate) const GPU_LIGHT_DIRECTIONAL: u32 = 0;
 pub(crate) const GPU_LIGHT_POINT: u32 = 1;
 pub(crate) const GPU_LIGHT_SPOT: u32 = 2;
+
+/// `ShadowLight.projection` in the WGSL.
+pub(crate) const GPU_SHADOW_ORTHOGRAPHIC: u32 = 0;
+pub(crate) const GPU_SHADOW_PERSPECTIVE: u32 = 1;
 
 const COMMON: &str = include_str!("../shaders/common.wgsl");
 const SHADING: &str = include_str!("../shaders/cdrf.wgsl");
@@ -66,6 +73,7 @@ pub fn wgsl_constants() -> String {
     for (name, value) in [
         ("MAX_LIGHTS", MAX_LIGHTS),
         ("MAX_SHADOW_LIGHTS", MAX_SHADOW_LIGHTS),
+        ("MAX_SHADOW_FACES", MAX_SHADOW_FACES),
         ("PENUMBRA_TAPS", PENUMBRA_TAPS),
         ("SUBSURFACE_KERNEL_SAMPLES", SUBSURFACE_KERNEL_SAMPLES),
         ("ENVIRONMENT_SH_BANDS", ENVIRONMENT_SH_BANDS),
@@ -80,6 +88,8 @@ pub fn wgsl_constants() -> String {
         ("LIGHT_SPOT", GPU_LIGHT_SPOT),
         ("SURFACE_NORMAL_MAP", crate::surface::SURFACE_NORMAL_MAP),
         ("SURFACE_ROUGHNESS", crate::surface::SURFACE_ROUGHNESS),
+        ("SHADOW_ORTHOGRAPHIC", GPU_SHADOW_ORTHOGRAPHIC),
+        ("SHADOW_PERSPECTIVE", GPU_SHADOW_PERSPECTIVE),
     ] {
         wgsl.push_str(&format!("const {name}: u32 = {value}u;\n"));
     }
