@@ -21,7 +21,11 @@
 // The shading model, the LUT filtering and the non-local terms are pipeline-overridable
 // constants, so each pipeline compiles to one straight-line shader.
 //
-// Non-local terms (SHADOWS, TRANSMISSION; see crates/cdrf-core/src/translucency.rs). The CDRF answers as if
+// Non-local terms (SHADOWS, TRANSMISSION; see crates/cdrf-core/src/translucency.rs), for the first
+// MAX_SHADOW_LIGHTS lights: a directional light's map is orthographic (columns along z), a point
+// or spot light's perspective (one face, or a cube of six; columns are the rays from the light
+// and depths the distance from it), so the test below runs along each light's own rays
+// (light_frame_point, light_ray, light_depth). The CDRF answers as if
 // the point lay on its osculating sphere (radius 1/κ, centre p − n/κ). For each shadow-map texel
 // around the point we compare the first surface the light meets with the one that sphere (or,
 // for flat and concave points, the tangent plane) predicts in that column:

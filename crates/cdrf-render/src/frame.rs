@@ -107,7 +107,9 @@ pub struct FrameDesc<'a> {
     pub view: View,
     /// The lights (at most [`MAX_LIGHTS`](crate::MAX_LIGHTS)), irradiance in linear units.
     /// The non-local terms are for the first [`MAX_SHADOW_LIGHTS`](crate::MAX_SHADOW_LIGHTS)
-    /// *directional* ones; point and spot lights shade with the local model.
+    /// in shading order (directional ones first); the subsurface gather and inter-reflection
+    /// for the directional ones among them only (point and spot lights keep shadows and
+    /// transmission).
     pub lights: &'a [Light],
     /// Multiplies the radiance (1 for physical output): 0..=[`MAX_EXPOSURE`].
     pub exposure: f32,
@@ -131,7 +133,7 @@ pub struct FrameDesc<'a> {
 
 impl FrameDesc<'_> {
     /// The lights in the order the shader holds them: the directional ones first (the first
-    /// [`MAX_SHADOW_LIGHTS`](crate::MAX_SHADOW_LIGHTS) of them have the non-local terms, light
+    /// [`MAX_SHADOW_LIGHTS`](crate::MAX_SHADOW_LIGHTS) lights have the non-local terms, light
     /// i its map i), then the rest, each group in the frame's order.
     pub(crate) fn lights_in_shading_order(&self) -> impl Iterator<Item = &Light> {
         let directional = |light: &&Light| light.as_directional().is_some();

@@ -7,7 +7,7 @@
 //! [`Renderer::prepare`] uploads camera, lights and draw transforms and
 //! [`Renderer::render`] records into the host's `RenderPass`.
 //!
-//! Output is **linear radiance** `L = Σ E/π · f(κ, θ) · g(θ, φ)` over the directional lights
+//! Output is **linear radiance** `L = Σ E/π · f(κ, θ) · g(θ, φ)` over the lights
 //! (irradiance `E` per RGB channel), so a render can be compared pixel for pixel with a
 //! physical reference. Shading models, per draw ([`MaterialDesc`]): the measured CDRF (a
 //! [`cdrf_core::CdrfLut`] with its view correction), Kubo's Gaussian CDRF (tabulated or
@@ -90,9 +90,11 @@
 //! # Beyond the poster: cast shadows, transmission, inter-reflection, subsurface gather
 //! [`FrameDesc::non_local`] turns on translucent visibility (cast shadows with a penumbra as wide
 //! as the material's scattering length) and transmission T(d, μ) (see
-//! [`cdrf_core::translucency`]). Then `prepare` also records a depth-only shadow pass — an
-//! orthographic map per light, for the first [`MAX_SHADOW_LIGHTS`] lights, fitted to the
-//! bounding sphere of the frame's draws ([`Options::shadow_map_resolution`]) — and returns its
+//! [`cdrf_core::translucency`]). Then `prepare` also records a depth-only shadow pass — a map
+//! per light for the first [`MAX_SHADOW_LIGHTS`] lights (directional ones first), fitted to the
+//! bounding sphere of the frame's draws ([`Options::shadow_map_resolution`]): orthographic for
+//! a directional light; for a point or spot light a perspective face aimed at the draws, or a
+//! cube of six faces when the light is among them — and returns its
 //! command buffer, which the host submits before the commands of its own pass (egui-wgpu's
 //! callbacks return it from their `prepare`). The shading reads the maps per vertex (the terms
 //! vary over the scattering length, millimetres, so meshes with shorter edges resolve them;
