@@ -8,7 +8,7 @@
 use std::path::PathBuf;
 
 use cdrf_core::glam::{Mat4, Vec3};
-use cdrf_core::image_file::RgbaImage;
+use cdrf_core::image_file::{RgbaImage, srgb_to_linear};
 use cdrf_core::mesh::surface::{SurfaceMaterial, TextureImage};
 use cdrf_core::scene::{Scene, SceneAssets};
 use cdrf_render::{
@@ -69,15 +69,6 @@ fn ratios(a: &RgbaImage, b: &RgbaImage) -> Vec<(u32, [f32; 3])> {
         .collect()
 }
 
-fn srgb_to_linear(c: u8) -> f32 {
-    let c = f32::from(c) / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
 /// Without the specular layer and the normal map, the textured render is the bare one times the
 /// base colour: (0.8, 0.9, 1.0) on the small sphere; on the checker, either 1 (white squares) or
 /// the light orange (255, 200, 150) decoded from sRGB — (1, 0.578, 0.305), not the raw
@@ -116,7 +107,11 @@ fn base_colour_tints_the_subsurface_light_by_its_linear_value() {
     );
     assert!(worst < 0.01, "worst tint error {worst}");
 
-    let orange = [1.0, srgb_to_linear(200), srgb_to_linear(150)];
+    let orange = [
+        1.0,
+        srgb_to_linear(200.0 / 255.0),
+        srgb_to_linear(150.0 / 255.0),
+    ];
     let near =
         |r: &[f32; 3], target: &[f32; 3]| (0..3).all(|c| (r[c] / target[c] - 1.0).abs() < 0.02);
     let checker: Vec<[f32; 3]> = all

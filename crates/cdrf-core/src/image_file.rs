@@ -234,6 +234,18 @@ impl RgbaImage {
     }
 }
 
+/// The exact sRGB decoding curve (IEC 61966-2-1) for an encoded value in [0, 1]; values outside
+/// are mapped sign-symmetrically with the same formula.
+pub fn srgb_to_linear(encoded: f32) -> f32 {
+    let c = encoded.abs();
+    let linear = if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    };
+    linear.copysign(encoded)
+}
+
 /// The sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1] (clamped).
 pub fn linear_to_srgb(linear: f32) -> f32 {
     let x = linear.clamp(0.0, 1.0);

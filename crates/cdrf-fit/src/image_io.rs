@@ -280,17 +280,8 @@ pub fn load_linear_image(
     Ok(image)
 }
 
-/// The exact sRGB decoding curve (IEC 61966-2-1) for an encoded value in [0, 1]; values outside
-/// are mapped sign-symmetrically with the same formula.
-pub fn srgb_to_linear(encoded: f32) -> f32 {
-    let c = encoded.abs();
-    let linear = if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    };
-    linear.copysign(encoded)
-}
+/// The exact sRGB decoding curve (cdrf-core's, re-exported for this module's users).
+pub use cdrf_core::image_file::srgb_to_linear;
 
 fn read_error(path: &Path, error: io::Error) -> ImageError {
     if error.kind() == io::ErrorKind::NotFound {

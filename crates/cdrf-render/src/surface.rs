@@ -28,6 +28,7 @@
 //! light, normals renormalised) and sampled trilinearly with each texture's own wrap modes.
 
 use cdrf_core::glam::Vec3;
+use cdrf_core::image_file::{linear_to_srgb, srgb_to_linear};
 use cdrf_core::mesh::surface::{SurfaceMaterial, TextureImage, TextureWrap};
 use wgpu::util::DeviceExt;
 
@@ -460,22 +461,6 @@ fn mip_chain(image: &TextureImage, kind: TextureKind) -> Vec<Vec<[u8; 4]>> {
         (width, height) = (next_width, next_height);
     }
     levels
-}
-
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
-fn linear_to_srgb(c: f32) -> f32 {
-    if c <= 0.0031308 {
-        c * 12.92
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    }
 }
 
 #[cfg(test)]
