@@ -100,9 +100,9 @@ fn lambert_sphere_under_a_spot_light_matches_its_cone() {
 }
 
 /// Radiance adds over lights, each with its own non-local terms: a point light and a directional
-/// one with every term on render as the two apart, in either order; the terms act on the point
-/// light (its perspective map), and its subsurface gather and inter-reflection stay off (those
-/// are for directional lights), so it renders with all terms as with shadows and transmission.
+/// one with every term on render as the two apart, in either order, and every term acts on the
+/// point light (its perspective maps): shadows and transmission, and the subsurface gather and
+/// inter-reflection on top of them.
 #[test]
 fn each_light_keeps_its_own_non_local_terms_whatever_the_order() {
     let path = data_dir().join("scenes/torus.toml");
@@ -169,7 +169,7 @@ fn each_light_keeps_its_own_non_local_terms_whatever_the_order() {
     assert!(total > 0.0);
     assert!(order < 1e-5, "{order}");
     assert!(parts < 1e-3, "{parts}");
-    assert!(gathers < 1e-5, "{gathers}");
+    assert!(gathers > 0.005, "{gathers}");
     assert!(terms > 0.01, "{terms}");
 }
 

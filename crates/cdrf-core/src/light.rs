@@ -106,7 +106,7 @@ pub struct Incidence {
 }
 
 impl Light {
-    /// The directional light, if this is one (only they have the non-local terms).
+    /// The directional light, if this is one.
     pub fn as_directional(&self) -> Option<&DirectionalLight> {
         match self {
             Self::Directional(light) => Some(light),

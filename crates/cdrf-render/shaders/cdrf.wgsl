@@ -39,17 +39,24 @@
 // Per light: f → V·f (shadows) + T_occluded + T_thin (transmission), all times g(θ, φ). The
 // terms are evaluated per vertex and interpolated (they vary over σ); Lambert's, per pixel.
 //
+// Both gathers below read maps rendered from each face of each shadowed light (vs_surfel): a
+// texel's "light area" A (texel_light_area) is what the light sees of it per unit of the
+// light's irradiance_or_intensity — the texel's side² for an orthographic map, its solid angle
+// (times a spot's falloff) for a perspective one, since the flux through a solid angle ω is
+// intensity · ω — so the flux entering the surface in the texel is that light value times A,
+// and both gathers return their sums per unit of it (fs_main multiplies).
+//
 // Inter-reflection (INTERREFLECTION): one bounce of light that left the lit surface and enters
 // another part of the object through the air (reflective shadow maps, Dachsbacher & Stamminger
-// 2005). The surfel pass (vs_surfel / fs_surfel) renders each shadowed light's first surface
-// into a small map (Options::interreflection_resolution, one sample per texel: averaging
-// samples across a silhouette put phantom emitters in the air between two strands): per texel
-// the light the surface sends out per unit of the light's irradiance and of map area,
-// f(κ, θ)/cos θ (the table's exitance over the surface the texel covers), its normal and its
-// position. Each vertex sums every texel as a Lambertian emitter,
-// E = Σ Φ·cos θ_q·cos θ_p / (π d²) (d clamped to one texel: a texel is not a point), with no
-// visibility test, and reflects it as light along its normal: E/π · f(κ, 0) · g(0, φ). On a
-// convex surface no emitter lies in front of a point, so the term is zero there.
+// 2005). The surfel pass (vs_surfel / fs_surfel) renders each face's first surface into a small
+// map (Options::interreflection_resolution, one sample per texel: averaging samples across a
+// silhouette put phantom emitters in the air between two strands): per texel the flux the
+// surface sends out, Φ = f(κ, θ)/cos θ · A (the table's exitance over the surface the texel
+// covers), its normal (octahedral) and its position. Each vertex sums every texel as a
+// Lambertian emitter, E = Σ Φ·cos θ_q·cos θ_p / (π d²) (d clamped to the texel's width: a
+// texel is not a point), with no visibility test, and reflects it as light along its normal:
+// E/π · f(κ, 0) · g(0, φ). On a convex surface no emitter lies in front of a point, so the
+// term is zero there.
 //
 // Subsurface gather (SUBSURFACE; see cdrf-core's diffusion::FarField). The light that entered
 // the lit surface near a point — beside it, behind it, through an occluder — leaves it by the
@@ -60,17 +67,21 @@
 // F_sphere the same far field integrated over the osculating sphere (tabulated per material on
 // the LUT's axes), s = f / F_sphere on the sphere's shadow side (θ ≥ 100°, held at its 100°
 // value toward the light): what the point receives in shadow is scaled as the measured
-// sphere's shadow side is over the profile's, so a sphere keeps f exactly for any V, Φ_q = μ_q^(p−1) · texel area the light entering texel q per unit irradiance
-// (μ^p the entry factor, 1/μ the surface a texel covers). The subsurface map pass
-// (fs_subsurface_map) renders each shadowed light's first surface into level 0 of a pyramid
-// (Φ·position, Φ), fine enough that ℓ_c spans 1.5 texels; each level sums 2 × 2 of the one
-// below. Each vertex reads 13 × 13 texels of every level around its own light-space position,
-// weighted by a partition of unity in distance (level L covers 1.5–6 of its texels, fading
-// in and out smoothly), and the coarsest level whole: ~900 reads per light whatever the map's
-// size, and a continuous function of the point (no texel switches on or off at a step), so
-// interpolating it between vertices cannot blotch. On a sphere G = F_sphere up to sampling.
-// With a profile, G replaces TRANSMISSION's T(d, μ) (it holds the light through occluders and
-// thin parts); materials without one keep T.
+// sphere's shadow side is over the profile's, so a sphere keeps f exactly for any V, and
+// Φ_q = μ_q^(p−1) · A_q the light entering texel q (μ^p the entry factor, 1/μ the surface a
+// texel covers). G multiplies the light's irradiance_or_intensity, the rest this point's
+// irradiance (under a point light the light entered where the irradiance is not this
+// point's). The subsurface map pass (fs_subsurface_map) renders each face's first surface
+// into level 0 of a pyramid (Φ·position, Φ), fine enough that ℓ_c spans 1.5 texels; each
+// level sums 2 × 2 of the one below. Each vertex reads 13 × 13 texels of every level around
+// its own position on the face, weighted by a partition of unity in distance (level L covers
+// 1.5–6 of its texels, fading in and out smoothly), and the coarsest level whole: ~900 reads
+// per face whatever the map's size, and a continuous function of the point (no texel switches
+// on or off at a step), so interpolating it between vertices cannot blotch. A cube's six faces
+// are each read around the point's projection on them (their fine levels only where that
+// window reaches the face), so the sum is continuous across their edges too. On a sphere
+// G = F_sphere up to sampling. With a profile, G replaces TRANSMISSION's T(d, μ) (it holds
+// the light through occluders and thin parts); materials without one keep T.
 
 const PI: f32 = 3.14159265358979;
 const FRAC_1_PI: f32 = 0.318309886183791;
@@ -249,13 +260,14 @@ struct Shadows {
 @group(2) @binding(6) var roughness_sampler: sampler;
 @group(3) @binding(0) var<uniform> shadows: Shadows;
 @group(3) @binding(1) var shadow_maps: texture_depth_2d_array;
-// Surfel maps: exitance f/cos θ (rgb; 0 where no surface) and the light-space normal's x (a);
-// light-space position in mm (xyz) and the normal's y (a). The normal's z is negative (the
-// surface faces the light).
+// Surfel maps, one layer per face of each shadowed light: flux Φ (rgb, per unit of the light's
+// irradiance_or_intensity; 0 where no surface) and position in the light's frame, mm (xyz),
+// with the normal in that frame octahedral-encoded in their a channels.
 @group(3) @binding(2) var surfel_exitance: texture_2d_array<f32>;
 @group(3) @binding(3) var surfel_position: texture_2d_array<f32>;
-// The subsurface pyramid: per texel Φ·(light-space position, mm) and Φ (mm², per unit
-// irradiance), summed over the level-0 texels it covers; one layer per shadowed light.
+// The subsurface pyramid: per texel Φ·(position in the light's frame, mm) and Φ (per unit of
+// the light's irradiance_or_intensity), summed over the level-0 texels it covers; one layer
+// per face of each shadowed light.
 @group(3) @binding(4) var subsurface_pyramid: texture_2d_array<f32>;
 
 struct VertexIn {
@@ -369,15 +381,9 @@ fn gathers_subsurface() -> bool {
     return SUBSURFACE && material.subsurface_reach_mm > 0.0 && MODEL != MODEL_LAMBERT;
 }
 
-// Whether the subsurface gather (and the inter-reflection) reads shadowed light `index`: only
-// directional lights (orthographic maps) have a pyramid and a surfel map; point and spot
-// lights keep V and T(d, μ).
-fn gathers_subsurface_from(index: u32) -> bool {
-    return gathers_subsurface() && shadows.lights[index].projection == SHADOW_ORTHOGRAPHIC;
-}
-
-// The per-vertex terms of shadowed light `index`: visibility and T(d, μ) from the shadow map,
-// and with the subsurface gather G in T's place.
+// The per-vertex terms of shadowed light `index`: visibility and T(d, μ) from the shadow map
+// (π·L/E), and with the subsurface gather G in T's place (per unit of the light's
+// irradiance_or_intensity: see fs_main).
 fn vertex_non_local(
     index: u32,
     world_position: vec3<f32>,
@@ -390,11 +396,8 @@ fn vertex_non_local(
     if SHADOWS || TRANSMISSION {
         terms = non_local_terms(index, world_position, normal, curvature_per_mm);
     }
-    if gathers_subsurface_from(index) {
-        let light = shadows.lights[index];
-        let p = (light.light_from_world[0] * vec4<f32>(world_position, 1.0)).xyz
-            * shadows.mm_per_world_unit;
-        terms.transmission = subsurface_gather(index, p);
+    if gathers_subsurface() {
+        terms.transmission = subsurface_gather(index, light_frame_point(index, world_position));
     }
     return terms;
 }
@@ -744,14 +747,59 @@ fn light_depth(index: u32, q: vec3<f32>) -> f32 {
     return length(q);
 }
 
-// The width of one map texel across the light at frame point q (mm).
+// The width of one shadow map texel across the light at frame point q (mm).
 fn texel_width_mm(index: u32, q: vec3<f32>) -> f32 {
+    return texel_width_of(index, q, shadows.resolution);
+}
+
+// The same for a map of `resolution` texels per side.
+fn texel_width_of(index: u32, q: vec3<f32>, resolution: u32) -> f32 {
     let light = &shadows.lights[index];
     var half_width_mm = (*light).half_extent * shadows.mm_per_world_unit;
     if (*light).projection != SHADOW_ORTHOGRAPHIC {
         half_width_mm = (*light).half_extent * light_depth(index, q);
     }
-    return 2.0 * half_width_mm / f32(shadows.resolution);
+    return 2.0 * half_width_mm / f32(resolution);
+}
+
+// Frame point q (mm) in face `face` of light `index`: x, y across it, z along its axis (an
+// orthographic light's frame is its face already).
+fn light_face_point(index: u32, face: u32, q: vec3<f32>) -> vec3<f32> {
+    if shadows.lights[index].projection == SHADOW_ORTHOGRAPHIC {
+        return q;
+    }
+    return (shadows.lights[index].light_from_world[face] * vec4<f32>(q, 0.0)).xyz;
+}
+
+// The map coordinates (0–1 across the map, v down) of face point `local` of light `index`;
+// a perspective face's only for local.z > 0 (in front of the light).
+fn face_uv(index: u32, local: vec3<f32>) -> vec2<f32> {
+    let light = &shadows.lights[index];
+    var across = local.xy / ((*light).half_extent * shadows.mm_per_world_unit);
+    if (*light).projection != SHADOW_ORTHOGRAPHIC {
+        across = local.xy / (local.z * (*light).half_extent);
+    }
+    return vec2<f32>(0.5, 0.5) + vec2<f32>(0.5, -0.5) * across;
+}
+
+// The area the light sees of one texel of a `resolution`-texel map of light `index` at its
+// face point `local` (frame point q), per unit of the light's irradiance_or_intensity, so that
+// times it is the flux entering the first surface in that texel: orthographic, the texel's
+// side squared (mm²); perspective, its solid angle (sr) times a spot's falloff (the flux
+// through a solid angle ω is intensity · ω whatever the distance).
+fn texel_light_area(index: u32, face: u32, q: vec3<f32>, resolution: u32) -> f32 {
+    let light = &shadows.lights[index];
+    if (*light).projection == SHADOW_ORTHOGRAPHIC {
+        let side_mm = 2.0 * (*light).half_extent * shadows.mm_per_world_unit / f32(resolution);
+        return side_mm * side_mm;
+    }
+    let local = light_face_point(index, face, q);
+    let distance_mm = max(length(q), 1e-6);
+    // A texel of side a on the plane z = 1 at angle γ off the axis: ω = a² cos³ γ.
+    let side = 2.0 * (*light).half_extent / f32(resolution);
+    let cosine = max(local.z, 0.0) / distance_mm;
+    return side * side * cosine * cosine * cosine
+        * spot_falloff(frame.lights[index], -q / distance_mm);
 }
 
 // The depth (mm) of the first surface the local shape puts in the tap's column: the tap itself
@@ -802,33 +850,25 @@ fn shadow_column(index: u32, q: vec3<f32>) -> Column {
     var column: Column;
     column.layer = (*light).first_layer;
     column.first_surface_mm = depth_range_mm;
-    var uv: vec2<f32>;
-    if (*light).projection == SHADOW_ORTHOGRAPHIC {
-        uv = vec2<f32>(0.5, 0.5)
-            + vec2<f32>(0.5, -0.5) * q.xy / ((*light).half_extent * shadows.mm_per_world_unit);
-    } else {
-        // A cube's face: the axis the ray is nearest (faces +x, −x, +y, −y, +z, −z).
-        var face = 0u;
-        if (*light).face_count == 6u {
-            let a = abs(q);
-            if a.x >= a.y && a.x >= a.z {
-                face = select(1u, 0u, q.x >= 0.0);
-            } else if a.y >= a.z {
-                face = select(3u, 2u, q.y >= 0.0);
-            } else {
-                face = select(5u, 4u, q.z >= 0.0);
-            }
+    // A cube's face: the axis the ray is nearest (faces +x, −x, +y, −y, +z, −z).
+    var face = 0u;
+    if (*light).face_count == 6u {
+        let a = abs(q);
+        if a.x >= a.y && a.x >= a.z {
+            face = select(1u, 0u, q.x >= 0.0);
+        } else if a.y >= a.z {
+            face = select(3u, 2u, q.y >= 0.0);
+        } else {
+            face = select(5u, 4u, q.z >= 0.0);
         }
-        column.layer += face;
-        let local = ((*light).light_from_world[face] * vec4<f32>(q, 0.0)).xyz;
-        if local.z <= 0.0 {
-            column.texel = vec2<i32>(-1);
-            return column;
-        }
-        uv = vec2<f32>(0.5, 0.5)
-            + vec2<f32>(0.5, -0.5) * local.xy / (local.z * (*light).half_extent);
     }
-    column.texel = vec2<i32>(floor(uv * resolution));
+    column.layer += face;
+    let local = light_face_point(index, face, q);
+    if (*light).projection != SHADOW_ORTHOGRAPHIC && local.z <= 0.0 {
+        column.texel = vec2<i32>(-1);
+        return column;
+    }
+    column.texel = vec2<i32>(floor(face_uv(index, local) * resolution));
     if all(column.texel >= vec2<i32>(0)) && all(column.texel < vec2<i32>(i32(resolution))) {
         column.first_surface_mm = textureLoad(shadow_maps, column.texel, i32(column.layer), 0)
             * depth_range_mm;
@@ -1012,6 +1052,11 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
             let theta = angle(cos_theta);
             var f = local_value(in.curvature_per_mm, cos_theta, theta);
             var visibility = vec3<f32>(1.0);
+            // The light through material the table does not see: T(d, μ) in π·L/E (times the
+            // irradiance here), or the gather's G (times the light's irradiance or intensity:
+            // the light entered elsewhere, where the irradiance is not this point's).
+            var through = vec3<f32>(0.0);
+            var through_scale = incidence.irradiance;
             if (SHADOWS || TRANSMISSION || SUBSURFACE) && i < shadows.light_count {
                 var terms: NonLocalTerms;
                 if MODEL == MODEL_LAMBERT {
@@ -1024,7 +1069,8 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                 } else {
                     terms = vertex_terms(in, i);
                 }
-                if gathers_subsurface_from(i) {
+                if gathers_subsurface() {
+                    through_scale = frame.lights[i].irradiance_or_intensity;
                     // The far field the table holds through the osculating sphere: the gather
                     // brings it from the surface that is there.
                     f -= subsurface_sphere_value(in.curvature_per_mm, theta);
@@ -1040,12 +1086,16 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                     f *= terms.visibility;
                     visibility = terms.visibility;
                 }
-                f = max(f + terms.transmission, vec3<f32>(0.0));
+                through = terms.transmission;
             }
+            var reflected = max(
+                incidence.irradiance * f + through_scale * through,
+                vec3<f32>(0.0),
+            );
             if MODEL != MODEL_LAMBERT {
-                f *= view_value(theta, phi);
+                reflected *= view_value(theta, phi);
             }
-            radiance += incidence.irradiance * FRAC_1_PI * f;
+            radiance += FRAC_1_PI * reflected;
             if material.specular_on != 0u {
                 specular += incidence.irradiance * visibility
                     * specular_radiance(normal, incidence.to_light, to_camera, alpha);
@@ -1177,18 +1227,24 @@ fn light_incidence(light: Light, world_position: vec3<f32>) -> Incidence {
     let offset = light.to_light_or_position - world_position;
     let d_mm = length(offset) * frame.mm_per_world_unit;
     incidence.to_light = offset / max(length(offset), 1e-30);
-    var irradiance = light.irradiance_or_intensity / max(d_mm * d_mm, 1e-12);
-    if light.kind == LIGHT_SPOT {
-        let t = clamp(
-            (dot(-incidence.to_light, light.spot_direction) - light.spot_cos_outer)
-                / max(light.spot_cos_inner - light.spot_cos_outer, 1e-6),
-            0.0,
-            1.0,
-        );
-        irradiance *= t * t * (3.0 - 2.0 * t);
-    }
-    incidence.irradiance = irradiance;
+    incidence.irradiance = light.irradiance_or_intensity / max(d_mm * d_mm, 1e-12)
+        * spot_falloff(light, incidence.to_light);
     return incidence;
+}
+
+// A spot light's cone (1 inside the inner angle, 0 outside the outer, a smoothstep in the cosine
+// between) at the unit vector `to_light`; 1 for other lights.
+fn spot_falloff(light: Light, to_light: vec3<f32>) -> f32 {
+    if light.kind != LIGHT_SPOT {
+        return 1.0;
+    }
+    let t = clamp(
+        (dot(-to_light, light.spot_direction) - light.spot_cos_outer)
+            / max(light.spot_cos_inner - light.spot_cos_outer, 1e-6),
+        0.0,
+        1.0,
+    );
+    return t * t * (3.0 - 2.0 * t);
 }
 
 // The local model's f(κ, θ) (π·L/E; the curvature view has none).
@@ -1219,14 +1275,11 @@ fn interreflected_radiance(
     let count = min(shadows.light_count, min(frame.light_count, MAX_SHADOW_LIGHTS));
     var irradiance = vec3<f32>(0.0);
     for (var i = 0u; i < count; i++) {
-        let light = shadows.lights[i];
-        if light.projection != SHADOW_ORTHOGRAPHIC {
-            continue;
-        }
-        let p = (light.light_from_world[0] * vec4<f32>(world_position, 1.0)).xyz
-            * shadows.mm_per_world_unit;
-        let n = (light.light_from_world[0] * vec4<f32>(normal, 0.0)).xyz;
-        irradiance += frame.lights[i].irradiance_or_intensity * surfel_irradiance(i, p, n);
+        irradiance += frame.lights[i].irradiance_or_intensity * surfel_irradiance(
+            i,
+            light_frame_point(i, world_position),
+            light_frame_vector(i, normal),
+        );
     }
     var response = local_value(curvature_per_mm, 1.0, 0.0);
     if MODEL != MODEL_LAMBERT {
@@ -1235,39 +1288,41 @@ fn interreflected_radiance(
     return irradiance * FRAC_1_PI * response;
 }
 
-// Irradiance at light-space point p (mm) with normal n from surfel map `index`, per unit of the
-// light's irradiance: every covered texel as a Lambertian emitter of flux exitance × area.
+// Irradiance at frame point p (mm) with normal n from the surfel maps of light `index` (one per
+// face), per unit of the light's irradiance_or_intensity: every covered texel as a Lambertian
+// emitter of its flux, the distance clamped to the texel's width there.
 fn surfel_irradiance(index: u32, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let light = &shadows.lights[index];
     let size = i32(shadows.surfel_resolution);
-    let texel_mm = 2.0 * shadows.lights[index].half_extent * shadows.mm_per_world_unit
-        / f32(size);
-    let nearest_sq = texel_mm * texel_mm;
     var sum = vec3<f32>(0.0);
-    for (var y = 0; y < size; y++) {
-        for (var x = 0; x < size; x++) {
-            let texel = vec2<i32>(x, y);
-            let exitance = textureLoad(surfel_exitance, texel, i32(index), 0);
-            if all(exitance.rgb <= vec3<f32>(0.0)) {
-                continue;
+    for (var face = 0u; face < (*light).face_count; face++) {
+        let layer = i32((*light).first_layer + face);
+        for (var y = 0; y < size; y++) {
+            for (var x = 0; x < size; x++) {
+                let texel = vec2<i32>(x, y);
+                let flux = textureLoad(surfel_exitance, texel, layer, 0);
+                if all(flux.rgb <= vec3<f32>(0.0)) {
+                    continue;
+                }
+                let position = textureLoad(surfel_position, texel, layer, 0);
+                let from_emitter = p - position.xyz;
+                let receiver = -dot(n, from_emitter);
+                if receiver <= 0.0 {
+                    continue;
+                }
+                let emitter_normal = octahedral_decode(vec2<f32>(flux.a, position.a));
+                let emitter = dot(emitter_normal, from_emitter);
+                if emitter <= 0.0 {
+                    continue;
+                }
+                // cos θ_p · cos θ_q = receiver · emitter / d², then / d² clamped.
+                let d2 = dot(from_emitter, from_emitter);
+                let width = texel_width_of(index, position.xyz, shadows.surfel_resolution);
+                sum += flux.rgb * (receiver * emitter / (d2 * max(d2, width * width)));
             }
-            let position = textureLoad(surfel_position, texel, i32(index), 0);
-            let from_emitter = p - position.xyz;
-            let receiver = -dot(n, from_emitter);
-            if receiver <= 0.0 {
-                continue;
-            }
-            let across = vec2<f32>(exitance.a, position.a);
-            let emitter_normal = vec3<f32>(across, -sqrt(max(1.0 - dot(across, across), 0.0)));
-            let emitter = dot(emitter_normal, from_emitter);
-            if emitter <= 0.0 {
-                continue;
-            }
-            // cos θ_p · cos θ_q = receiver · emitter / d², then / d² clamped.
-            let d2 = dot(from_emitter, from_emitter);
-            sum += exitance.rgb * (receiver * emitter / (d2 * max(d2, nearest_sq)));
         }
     }
-    return sum * (nearest_sq * FRAC_1_PI);
+    return sum * FRAC_1_PI;
 }
 
 // F_sphere(κ, θ) on the LUT's axes (as lut_value).
@@ -1303,18 +1358,33 @@ fn level_share(rho: f32) -> f32 {
     return 1.0 - smoothstep(SUBSURFACE_LEVEL_REACH, 2.0 * SUBSURFACE_LEVEL_REACH, rho);
 }
 
-// G at light-space point p (mm) from pyramid `index`, per unit of the light's irradiance (see
-// the header): level L weighs its texel at ρ (its texels) from p by
-// level_share(ρ) − level_share(2ρ) (level 0: level_share(ρ); the coarsest: 1 − level_share(2ρ)),
-// which sum to 1 at every distance.
+// G at frame point p (mm) from the pyramids of light `index` (one per face), per unit of the
+// light's irradiance_or_intensity (see the header).
 fn subsurface_gather(index: u32, p: vec3<f32>) -> vec3<f32> {
-    let levels = shadows.subsurface_levels;
-    if levels == 0u {
-        return vec3<f32>(0.0);
+    var sum = vec3<f32>(0.0);
+    if shadows.subsurface_levels == 0u {
+        return sum;
     }
-    let half_extent_mm = shadows.lights[index].half_extent * shadows.mm_per_world_unit;
-    // The point in level-0 texel coordinates (as shadow_column).
-    let uv = vec2<f32>(0.5, 0.5) + vec2<f32>(0.5, -0.5) * p.xy / half_extent_mm;
+    let light = &shadows.lights[index];
+    for (var face = 0u; face < (*light).face_count; face++) {
+        let local = light_face_point(index, face, p);
+        // Behind a perspective face the point is far from all of it: its coarsest level only.
+        let in_front = (*light).projection == SHADOW_ORTHOGRAPHIC || local.z > 0.0;
+        var uv = vec2<f32>(0.0);
+        if in_front {
+            uv = face_uv(index, local);
+        }
+        sum += subsurface_gather_face(i32((*light).first_layer + face), p, uv, in_front);
+    }
+    return sum;
+}
+
+// One face's pyramid (layer `layer`), the point p at map coordinates `uv` (`near`: false when
+// it has none, and all the light counts as far): level L weighs its texel at ρ (its texels)
+// from the point by level_share(ρ) − level_share(2ρ) (level 0: level_share(ρ); the coarsest:
+// 1 − level_share(2ρ)), which sum to 1 at every distance.
+fn subsurface_gather_face(layer: i32, p: vec3<f32>, uv: vec2<f32>, near: bool) -> vec3<f32> {
+    let levels = shadows.subsurface_levels;
     var sum = vec3<f32>(0.0);
     for (var level = 0u; level < levels; level++) {
         let size = i32(shadows.subsurface_resolution >> level);
@@ -1325,6 +1395,9 @@ fn subsurface_gather(index: u32, p: vec3<f32>) -> vec3<f32> {
         if coarsest {
             first = vec2<i32>(0);
             count = size;
+        } else if !near || any(first + count <= vec2<i32>(0)) || any(first >= vec2<i32>(size)) {
+            // No texel of this level's window lies on the map.
+            continue;
         }
         for (var dy = 0; dy < count; dy++) {
             for (var dx = 0; dx < count; dx++) {
@@ -1332,18 +1405,20 @@ fn subsurface_gather(index: u32, p: vec3<f32>) -> vec3<f32> {
                 if any(texel < vec2<i32>(0)) || any(texel >= vec2<i32>(size)) {
                     continue;
                 }
-                let rho = length(vec2<f32>(texel) + 0.5 - centre);
                 var share = 1.0;
-                if level > 0u {
-                    share -= level_share(2.0 * rho);
-                }
-                if !coarsest {
-                    share -= 1.0 - level_share(rho);
+                if near {
+                    let rho = length(vec2<f32>(texel) + 0.5 - centre);
+                    if level > 0u {
+                        share -= level_share(2.0 * rho);
+                    }
+                    if !coarsest {
+                        share -= 1.0 - level_share(rho);
+                    }
                 }
                 if share <= 0.0 {
                     continue;
                 }
-                let texel_sum = textureLoad(subsurface_pyramid, texel, i32(index), i32(level));
+                let texel_sum = textureLoad(subsurface_pyramid, texel, layer, i32(level));
                 if texel_sum.w <= 0.0 {
                     continue;
                 }
@@ -1358,31 +1433,66 @@ fn subsurface_gather(index: u32, p: vec3<f32>) -> vec3<f32> {
 
 struct SurfelOut {
     @builtin(position) clip: vec4<f32>,
+    // The light's frame (light_frame_point), mm, and the normal in it.
     @location(0) light_position_mm: vec3<f32>,
     @location(1) light_normal: vec3<f32>,
     @location(2) curvature_per_mm: f32,
     @location(3) @interpolate(flat) light: u32,
+    // Face of a perspective light (0 for orthographic ones).
+    @location(4) @interpolate(flat) face: u32,
 }
 
-// The surfel pass: the draws seen from shadowed light `light` (the instance index), in the
-// shadow map's square.
+// The light-view passes (surfel map, subsurface map): the draws seen from face `face` of
+// shadowed light `light` (the instance index is light · MAX_SHADOW_FACES + face), in the shadow
+// map's square or frustum.
 @vertex
-fn vs_surfel(vertex: VertexIn, @builtin(instance_index) light: u32) -> SurfelOut {
+fn vs_surfel(vertex: VertexIn, @builtin(instance_index) instance: u32) -> SurfelOut {
+    let light = instance / MAX_SHADOW_FACES;
+    let face = instance % MAX_SHADOW_FACES;
     let camera = shadows.lights[light];
-    let world = draw.world_from_model * vec4<f32>(vertex.position, 1.0);
-    let light_space = (camera.light_from_world[0] * world).xyz;
+    let world = (draw.world_from_model * vec4<f32>(vertex.position, 1.0)).xyz;
+    let local = (camera.light_from_world[face] * vec4<f32>(world, 1.0)).xyz;
     var out: SurfelOut;
-    out.clip = vec4<f32>(
-        light_space.xy / camera.half_extent,
-        light_space.z / camera.depth_range,
-        1.0,
-    );
-    out.light_position_mm = light_space * shadows.mm_per_world_unit;
+    if camera.projection == SHADOW_ORTHOGRAPHIC {
+        out.clip = vec4<f32>(
+            local.xy / camera.half_extent,
+            local.z / camera.depth_range,
+            1.0,
+        );
+    } else {
+        // As the shadow pass's perspective faces: depth from 0.1 % to 100 % of the range.
+        let far = camera.depth_range;
+        let near = 1e-3 * far;
+        out.clip = vec4<f32>(
+            local.xy / camera.half_extent,
+            (local.z - near) * far / (far - near),
+            local.z,
+        );
+    }
+    out.light_position_mm = light_frame_point(light, world);
     let normal = (draw.normal_from_model * vec4<f32>(vertex.normal, 0.0)).xyz;
-    out.light_normal = (camera.light_from_world[0] * vec4<f32>(normal, 0.0)).xyz;
+    out.light_normal = light_frame_vector(light, normal);
     out.curvature_per_mm = vertex.curvature_per_mm * draw.curvature_scale;
     out.light = light;
+    out.face = face;
     return out;
+}
+
+// What the light gives the first surface of a light-view pass's fragment: the cosine between
+// its normal and the light, and the area the light sees of one texel of a `resolution`-texel
+// map there (texel_light_area).
+struct LitTexel {
+    normal: vec3<f32>,
+    cos_theta: f32,
+    area: f32,
+}
+
+fn lit_texel(in: SurfelOut, resolution: u32) -> LitTexel {
+    var texel: LitTexel;
+    texel.normal = normalize(in.light_normal);
+    texel.cos_theta = -dot(texel.normal, light_ray(in.light, in.light_position_mm));
+    texel.area = texel_light_area(in.light, in.face, in.light_position_mm, resolution);
+    return texel;
 }
 
 struct SurfelTexel {
@@ -1392,12 +1502,11 @@ struct SurfelTexel {
 
 @fragment
 fn fs_surfel(in: SurfelOut) -> SurfelTexel {
-    let normal = normalize(in.light_normal);
-    // The light shines along +z of light space.
-    let cos_theta = -normal.z;
-    let f = local_value(in.curvature_per_mm, cos_theta, angle(cos_theta));
+    let texel = lit_texel(in, shadows.surfel_resolution);
+    let f = local_value(in.curvature_per_mm, texel.cos_theta, angle(texel.cos_theta));
+    let normal = octahedral_encode(texel.normal);
     var out: SurfelTexel;
-    out.exitance = vec4<f32>(f / max(cos_theta, SURFEL_MIN_COSINE), normal.x);
+    out.exitance = vec4<f32>(f / max(texel.cos_theta, SURFEL_MIN_COSINE) * texel.area, normal.x);
     out.position = vec4<f32>(in.light_position_mm, normal.y);
     return out;
 }
@@ -1407,15 +1516,35 @@ fn fs_surfel(in: SurfelOut) -> SurfelTexel {
 // (one pipeline for every model: MODEL is not set here).
 @fragment
 fn fs_subsurface_map(in: SurfelOut) -> @location(0) vec4<f32> {
-    let normal = normalize(in.light_normal);
     if !(material.subsurface_reach_mm > 0.0) {
         return vec4<f32>(0.0);
     }
-    let texel_mm = 2.0 * shadows.lights[in.light].half_extent * shadows.mm_per_world_unit
-        / f32(shadows.subsurface_resolution);
-    // The light shines along +z of light space; μ at least 0.1 (a silhouette texel's surface is
-    // a guess).
-    let mu = max(-normal.z, 0.1);
-    let flux = texel_mm * texel_mm * pow(mu, material.subsurface_entry_cosine_power - 1.0);
+    let texel = lit_texel(in, shadows.subsurface_resolution);
+    // μ at least 0.1 (a silhouette texel's surface is a guess).
+    let mu = max(texel.cos_theta, 0.1);
+    let flux = texel.area * pow(mu, material.subsurface_entry_cosine_power - 1.0);
     return vec4<f32>(in.light_position_mm * flux, flux);
+}
+
+// A unit vector as two numbers in [−1, 1] (octahedral mapping), and back.
+fn octahedral_encode(n: vec3<f32>) -> vec2<f32> {
+    let p = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
+    if n.z >= 0.0 {
+        return p;
+    }
+    return (vec2<f32>(1.0) - abs(p.yx)) * sign_not_zero(p);
+}
+
+fn octahedral_decode(e: vec2<f32>) -> vec3<f32> {
+    let z = 1.0 - abs(e.x) - abs(e.y);
+    var xy = e;
+    if z < 0.0 {
+        xy = (vec2<f32>(1.0) - abs(e.yx)) * sign_not_zero(e);
+    }
+    return normalize(vec3<f32>(xy, z));
+}
+
+// ±1 per component (+1 at zero).
+fn sign_not_zero(v: vec2<f32>) -> vec2<f32> {
+    return select(vec2<f32>(-1.0), vec2<f32>(1.0), v >= vec2<f32>(0.0));
 }

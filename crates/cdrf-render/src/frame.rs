@@ -107,9 +107,7 @@ pub struct FrameDesc<'a> {
     pub view: View,
     /// The lights (at most [`MAX_LIGHTS`](crate::MAX_LIGHTS)), irradiance in linear units.
     /// The non-local terms are for the first [`MAX_SHADOW_LIGHTS`](crate::MAX_SHADOW_LIGHTS)
-    /// in shading order (directional ones first); the subsurface gather and inter-reflection
-    /// for the directional ones among them only (point and spot lights keep shadows and
-    /// transmission).
+    /// in shading order (directional ones first), every kind.
     pub lights: &'a [Light],
     /// Multiplies the radiance (1 for physical output): 0..=[`MAX_EXPOSURE`].
     pub exposure: f32,

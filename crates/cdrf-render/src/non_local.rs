@@ -56,23 +56,29 @@ pub(crate) struct SurfelBindings<'a> {
     pub(crate) subsurface_pipeline: Option<&'a wgpu::RenderPipeline>,
 }
 
-/// The subsurface pyramid: per shadowed light, level 0 rendered from the light and each
+/// The subsurface pyramid: per face of a shadowed light, level 0 rendered from the light and each
 /// further level the 2 × 2 sums of the one below, down to [`SUBSURFACE_COARSEST`].
 struct SubsurfacePyramid {
     resolution: u32,
     levels: u32,
     /// All layers and levels, for the shading pipelines.
     array: wgpu::TextureView,
-    /// Per light, one view per level (render targets and the next level's source).
+    /// Per face (layer), one view per level (render targets and the next level's source).
     level_views: Vec<Vec<wgpu::TextureView>>,
-    /// Per light, the reduction's bind group of levels 1… (reading the level below).
+    /// Per face, the reduction's bind group of levels 1… (reading the level below).
     reduce_groups: Vec<Vec<wgpu::BindGroup>>,
     depth: wgpu::TextureView,
 }
 
 impl SubsurfacePyramid {
-    /// `resolution`: a power of two (1: a blank pyramid with no level the gather reads).
-    fn new(device: &wgpu::Device, reduce_layout: &wgpu::BindGroupLayout, resolution: u32) -> Self {
+    /// `resolution`: a power of two (1: a blank pyramid with no level the gather reads);
+    /// `layers`: one per face of the shadowed lights.
+    fn new(
+        device: &wgpu::Device,
+        reduce_layout: &wgpu::BindGroupLayout,
+        resolution: u32,
+        layers: u32,
+    ) -> Self {
         let levels = if resolution >= SUBSURFACE_COARSEST {
             (resolution / SUBSURFACE_COARSEST).ilog2() + 1
         } else {
@@ -83,7 +89,7 @@ impl SubsurfacePyramid {
             size: wgpu::Extent3d {
                 width: resolution,
                 height: resolution,
-                depth_or_array_layers: MAX_SHADOW_LIGHTS as u32,
+                depth_or_array_layers: layers,
             },
             mip_level_count: levels.max(1),
             sample_count: 1,
@@ -97,7 +103,7 @@ impl SubsurfacePyramid {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
         });
-        let level_views: Vec<Vec<wgpu::TextureView>> = (0..MAX_SHADOW_LIGHTS as u32)
+        let level_views: Vec<Vec<wgpu::TextureView>> = (0..layers)
             .map(|layer| {
                 (0..levels)
                     .map(|level| {
@@ -144,12 +150,12 @@ impl SubsurfacePyramid {
         }
     }
 
-    /// Renders level 0 of the shadowed lights marked `true` (`vs_surfel` /
-    /// `fs_subsurface_map`; the directional ones) and reduces it level by level.
+    /// Renders level 0 of every face (`vs_surfel` / `fs_subsurface_map`) and reduces it level
+    /// by level.
     fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        lights: &[bool],
+        faces: &[LightFace],
         casters: &[ShadowCaster<'_>],
         bindings: &SurfelBindings<'_>,
         surfel_pass_bind_group: &wgpu::BindGroup,
@@ -158,13 +164,7 @@ impl SubsurfacePyramid {
         let Some(pipeline) = bindings.subsurface_pipeline else {
             return;
         };
-        for (light, (views, _)) in self
-            .level_views
-            .iter()
-            .zip(lights)
-            .enumerate()
-            .filter(|(_, (_, on))| **on)
-        {
+        for ((views, groups), face) in self.level_views.iter().zip(&self.reduce_groups).zip(faces) {
             let Some(level0) = views.first() else {
                 return;
             };
@@ -174,13 +174,13 @@ impl SubsurfacePyramid {
                 "cdrf subsurface map",
                 &[level0],
                 &self.depth,
-                light,
+                face.instance(),
                 casters,
                 bindings,
                 surfel_pass_bind_group,
                 |_| Some(pipeline),
             );
-            for (coarser, group) in views.iter().skip(1).zip(&self.reduce_groups[light]) {
+            for (coarser, group) in views.iter().skip(1).zip(groups) {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("cdrf subsurface reduce"),
                     color_attachments: &[cleared_target(coarser)],
@@ -197,13 +197,29 @@ impl SubsurfacePyramid {
     }
 }
 
+/// One face of a shadowed light's map (a layer of the map arrays): the light's index and the
+/// face's, and whether it is perspective.
+#[derive(Clone, Copy)]
+struct LightFace {
+    light: usize,
+    face: usize,
+    perspective: bool,
+}
+
+impl LightFace {
+    /// The light-view passes' instance index (`vs_surfel`).
+    fn instance(self) -> u32 {
+        (self.light * MAX_SHADOW_FACES + self.face) as u32
+    }
+}
+
 /// The shadow maps, the surfel maps and what the shading pipelines read of them (bind group 3).
 struct ShadowMaps {
     resolution: u32,
     surfel_resolution: u32,
     /// One view per layer, to render into.
     layers: Vec<wgpu::TextureView>,
-    /// Per shadowed light, its surfel map's attachments.
+    /// Per face (layer), its surfel map's attachments.
     surfel_layers: Vec<[wgpu::TextureView; SURFEL_TARGETS]>,
     /// The surfel pass's depth buffer (shared by the lights).
     surfel_depth: wgpu::TextureView,
@@ -415,7 +431,7 @@ impl NonLocalPass {
         };
         let mut passes =
             vec![0u8; (self.pass_stride * (MAX_SHADOW_LIGHTS * MAX_SHADOW_FACES) as u64) as usize];
-        // (layer, perspective?) of every face, in layer order.
+        // Every face, in layer order.
         let mut faces = Vec::with_capacity(layer_count);
         for (index, camera) in cameras.iter().enumerate() {
             let mut light_from_world = [Mat4::IDENTITY; MAX_SHADOW_FACES];
@@ -442,7 +458,11 @@ impl NonLocalPass {
                 let start = faces.len() * self.pass_stride as usize;
                 passes[start..start + size_of::<GpuShadowPass>()]
                     .copy_from_slice(bytemuck::bytes_of(&pass));
-                faces.push(camera.position.is_some());
+                faces.push(LightFace {
+                    light: index,
+                    face,
+                    perspective: camera.position.is_some(),
+                });
             }
         }
         queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&shadows));
@@ -451,7 +471,7 @@ impl NonLocalPass {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("cdrf shadow pass"),
         });
-        for (index, (layer, perspective)) in maps.layers.iter().zip(&faces).enumerate() {
+        for (index, (layer, face)) in maps.layers.iter().zip(&faces).enumerate() {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("cdrf shadow map"),
                 color_attachments: &[],
@@ -467,7 +487,7 @@ impl NonLocalPass {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_pipeline(if *perspective {
+            pass.set_pipeline(if face.perspective {
                 &self.distance_pipeline
             } else {
                 &self.pipeline
@@ -481,14 +501,12 @@ impl NonLocalPass {
                 pass.draw_indexed(caster.indices.clone(), 0, 0..1);
             }
         }
-        // The surfel maps and the subsurface pyramid are for directional lights only.
-        let orthographic: Vec<bool> = cameras.iter().map(|c| c.position.is_none()).collect();
         if frame.non_local.interreflection {
-            maps.record_surfel_pass(&mut encoder, &orthographic, casters, &bindings);
+            maps.record_surfel_pass(&mut encoder, &faces, casters, &bindings);
         }
         maps.subsurface.record(
             &mut encoder,
-            &orthographic,
+            &faces,
             casters,
             &bindings,
             &maps.surfel_pass_bind_group,
@@ -517,8 +535,9 @@ impl ShadowMaps {
             subsurface_resolution,
             layer_count,
         ] = sizes;
-        let subsurface = SubsurfacePyramid::new(device, reduce_layout, subsurface_resolution);
-        let blank_pyramid = SubsurfacePyramid::new(device, reduce_layout, 1);
+        let subsurface =
+            SubsurfacePyramid::new(device, reduce_layout, subsurface_resolution, layer_count);
+        let blank_pyramid = SubsurfacePyramid::new(device, reduce_layout, 1, 1);
         let (shadow_array, layers) = layered_texture(
             device,
             "cdrf shadow maps",
@@ -532,11 +551,11 @@ impl ShadowMaps {
                 "cdrf surfel maps",
                 SURFEL_FORMAT,
                 surfel_resolution,
-                MAX_SHADOW_LIGHTS as u32,
+                layer_count,
             )
         });
-        let surfel_layers = (0..MAX_SHADOW_LIGHTS)
-            .map(|light| std::array::from_fn(|target| surfel_maps[target].1[light].clone()))
+        let surfel_layers = (0..layer_count as usize)
+            .map(|layer| std::array::from_fn(|target| surfel_maps[target].1[layer].clone()))
             .collect();
         let blank: [_; SURFEL_TARGETS] = std::array::from_fn(|_| {
             layered_texture(device, "cdrf blank surfel maps", SURFEL_FORMAT, 1, 1).0
@@ -594,29 +613,23 @@ impl ShadowMaps {
         ]
     }
 
-    /// Renders the first surface each shadowed light marked `true` (the directional ones)
-    /// meets into its surfel map (`vs_surfel` / `fs_surfel`; the light is the instance index).
+    /// Renders the first surface each face of each shadowed light meets into its surfel map
+    /// (`vs_surfel` / `fs_surfel`).
     fn record_surfel_pass(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        lights: &[bool],
+        faces: &[LightFace],
         casters: &[ShadowCaster<'_>],
         bindings: &SurfelBindings<'_>,
     ) {
-        for (light, (views, _)) in self
-            .surfel_layers
-            .iter()
-            .zip(lights)
-            .enumerate()
-            .filter(|(_, (_, on))| **on)
-        {
+        for (views, face) in self.surfel_layers.iter().zip(faces) {
             // Zero exitance: no surface.
             record_light_view(
                 encoder,
                 "cdrf surfel map",
                 &views.each_ref(),
                 &self.surfel_depth,
-                light,
+                face.instance(),
                 casters,
                 bindings,
                 &self.surfel_pass_bind_group,
@@ -626,8 +639,8 @@ impl ShadowMaps {
     }
 }
 
-/// Renders the casters as shadowed light `light` sees them (`vs_surfel`, the light is the
-/// instance index) into `targets`, cleared to zero (no surface), with `depth` cleared as the
+/// Renders the casters as a face of a shadowed light sees them (`vs_surfel`, `instance` names
+/// the light and the face: [`LightFace::instance`]) into `targets`, cleared to zero (no surface), with `depth` cleared as the
 /// depth buffer; `pipeline` gives each caster's pipeline (`None`: it is left out).
 #[allow(clippy::too_many_arguments)]
 fn record_light_view<'a>(
@@ -635,7 +648,7 @@ fn record_light_view<'a>(
     label: &'static str,
     targets: &[&wgpu::TextureView],
     depth: &wgpu::TextureView,
-    light: usize,
+    instance: u32,
     casters: &[ShadowCaster<'a>],
     bindings: &SurfelBindings<'_>,
     pass_bind_group: &wgpu::BindGroup,
@@ -659,7 +672,6 @@ fn record_light_view<'a>(
     });
     pass.set_bind_group(0, bindings.frame, &[]);
     pass.set_bind_group(3, pass_bind_group, &[]);
-    let instance = light as u32;
     for caster in casters {
         let Some(pipeline) = pipeline(caster) else {
             continue;
