@@ -782,8 +782,8 @@ fn face_uv(index: u32, local: vec3<f32>) -> vec2<f32> {
     return vec2<f32>(0.5, 0.5) + vec2<f32>(0.5, -0.5) * across;
 }
 
-// The area the light sees of one texel of a `resolution`-texel map of light `index` at its
-// face point `local` (frame point q), per unit of the light's irradiance_or_intensity, so that
+// The area the light sees of one texel of a `resolution`-texel map of light `index` at frame
+// point q on face `face`, per unit of the light's irradiance_or_intensity, so that
 // times it is the flux entering the first surface in that texel: orthographic, the texel's
 // side squared (mm²); perspective, its solid angle (sr) times a spot's falloff (the flux
 // through a solid angle ω is intensity · ω whatever the distance).
@@ -1294,6 +1294,10 @@ fn interreflected_radiance(
 fn surfel_irradiance(index: u32, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let light = &shadows.lights[index];
     let size = i32(shadows.surfel_resolution);
+    // A texel's width (texel_width_of, taken out of the loop): fixed across an orthographic
+    // map; on a perspective one, its width 1 mm from the light times the emitter's distance.
+    let perspective = (*light).projection != SHADOW_ORTHOGRAPHIC;
+    let texel_width = texel_width_of(index, vec3<f32>(0.0, 0.0, 1.0), shadows.surfel_resolution);
     var sum = vec3<f32>(0.0);
     for (var face = 0u; face < (*light).face_count; face++) {
         let layer = i32((*light).first_layer + face);
@@ -1317,7 +1321,10 @@ fn surfel_irradiance(index: u32, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
                 }
                 // cos θ_p · cos θ_q = receiver · emitter / d², then / d² clamped.
                 let d2 = dot(from_emitter, from_emitter);
-                let width = texel_width_of(index, position.xyz, shadows.surfel_resolution);
+                var width = texel_width;
+                if perspective {
+                    width *= length(position.xyz);
+                }
                 sum += flux.rgb * (receiver * emitter / (d2 * max(d2, width * width)));
             }
         }

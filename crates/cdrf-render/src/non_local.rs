@@ -1,9 +1,10 @@
 //! The non-local terms' GPU side: a light camera per shadowed light fitted to the frame's draws
 //! (orthographic for a directional light; for a point or spot light a perspective face aimed at
-//! the draws, or a cube of six when the light is among them), the depth-only shadow pass that renders their maps, the surfel pass that
-//! renders the lit surface the inter-reflection gathers from, the subsurface pyramid (the light
-//! entering the lit surface, for the subsurface gather), and the bind group (group 3)
-//! through which the shading pipelines read them. What the shader does with the maps is
+//! the draws, or a cube of six when the light is among them), the depth-only shadow pass that
+//! renders their maps, and per face of each light the surfel pass that renders the lit surface
+//! the inter-reflection gathers from and the subsurface pyramid (the light entering the lit
+//! surface, for the subsurface gather), and the bind group (group 3) through which the shading
+//! pipelines read them. What the shader does with the maps is
 //! documented at the top of `shaders/cdrf.wgsl`.
 
 use std::collections::HashMap;
@@ -640,8 +641,9 @@ impl ShadowMaps {
 }
 
 /// Renders the casters as a face of a shadowed light sees them (`vs_surfel`, `instance` names
-/// the light and the face: [`LightFace::instance`]) into `targets`, cleared to zero (no surface), with `depth` cleared as the
-/// depth buffer; `pipeline` gives each caster's pipeline (`None`: it is left out).
+/// the light and the face: [`LightFace::instance`]) into `targets`, cleared to zero (no
+/// surface), with `depth` cleared as the depth buffer; `pipeline` gives each caster's pipeline
+/// (`None`: it is left out).
 #[allow(clippy::too_many_arguments)]
 fn record_light_view<'a>(
     encoder: &mut wgpu::CommandEncoder,
