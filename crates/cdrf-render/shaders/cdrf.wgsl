@@ -270,6 +270,12 @@ struct Shadows {
 // per face of each shadowed light.
 @group(3) @binding(4) var subsurface_pyramid: texture_2d_array<f32>;
 
+// The vertex terms pass (cs_vertex_terms): the draw's mesh vertices as the vertex buffer holds
+// them (VERTEX_FLOATS f32s each: position at VERTEX_POSITION, normal at VERTEX_NORMAL,
+// curvature at VERTEX_CURVATURE) and the terms it writes for each of them.
+@group(2) @binding(7) var<storage, read> terms_mesh_vertices: array<f32>;
+@group(2) @binding(8) var<storage, read_write> terms_out: array<VertexTerms>;
+
 struct VertexIn {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
@@ -277,6 +283,34 @@ struct VertexIn {
     @location(3) uv: vec2<f32>,
     // xyz along +u, w the bitangent's sign (zero: no tangents).
     @location(4) tangent: vec4<f32>,
+}
+
+// A vertex's non-local terms (see vs_main_terms), written by cs_vertex_terms once per vertex
+// and frame: visibility (xyz) and transmission or gather (xyz, π·L/E) of the shadowed lights
+// 0–3, and the inter-reflected radiance (xyz). w unused.
+struct VertexTerms {
+    visibility_0: vec4<f32>,
+    transmission_0: vec4<f32>,
+    visibility_1: vec4<f32>,
+    transmission_1: vec4<f32>,
+    visibility_2: vec4<f32>,
+    transmission_2: vec4<f32>,
+    visibility_3: vec4<f32>,
+    transmission_3: vec4<f32>,
+    radiance: vec4<f32>,
+}
+
+// The same, read back as a second vertex buffer by the shading pass (locations 5–13).
+struct VertexTermsIn {
+    @location(5) visibility_0: vec4<f32>,
+    @location(6) transmission_0: vec4<f32>,
+    @location(7) visibility_1: vec4<f32>,
+    @location(8) transmission_1: vec4<f32>,
+    @location(9) visibility_2: vec4<f32>,
+    @location(10) transmission_2: vec4<f32>,
+    @location(11) visibility_3: vec4<f32>,
+    @location(12) transmission_3: vec4<f32>,
+    @location(13) radiance: vec4<f32>,
 }
 
 // Centroid interpolation: with MSAA, a silhouette pixel whose centre lies outside the triangle
@@ -307,13 +341,38 @@ struct VertexOut {
 // diffuses under a shadow's edge over about σ), so they are evaluated per vertex and
 // interpolated: meshes whose edges are well below σ (millimetres for wax) resolve them, at a
 // cost per vertex instead of per pixel. Lambert (opaque, hard edges) is evaluated per pixel.
+// They are evaluated once per vertex and frame by the vertex terms pass (cs_vertex_terms) and
+// read here as a second vertex buffer (vs_main_terms): a rasteriser shades a vertex once per
+// triangle corner or batch that uses it (lavapipe about six times), the pass exactly once.
 @vertex
 fn vs_main(vertex: VertexIn) -> VertexOut {
+    return vertex_out(vertex);
+}
+
+// vs_main, with the vertex's non-local terms from the vertex terms pass.
+@vertex
+fn vs_main_terms(vertex: VertexIn, terms: VertexTermsIn) -> VertexOut {
+    var out = vertex_out(vertex);
+    out.visibility_0 = terms.visibility_0.xyz;
+    out.transmission_0 = terms.transmission_0.xyz;
+    out.visibility_1 = terms.visibility_1.xyz;
+    out.transmission_1 = terms.transmission_1.xyz;
+    out.visibility_2 = terms.visibility_2.xyz;
+    out.transmission_2 = terms.transmission_2.xyz;
+    out.visibility_3 = terms.visibility_3.xyz;
+    out.transmission_3 = terms.transmission_3.xyz;
+    out.vertex_radiance += terms.radiance.xyz;
+    return out;
+}
+
+// The shading pass's vertex without non-local terms (visibility 1, no transmission or
+// inter-reflection), with the environment light's radiance.
+fn vertex_out(vertex: VertexIn) -> VertexOut {
     let world = draw.world_from_model * vec4<f32>(vertex.position, 1.0);
     var out: VertexOut;
     out.clip = frame.clip_from_world * world;
     out.world_position = world.xyz / world.w;
-    out.world_normal = (draw.normal_from_model * vec4<f32>(vertex.normal, 0.0)).xyz;
+    out.world_normal = world_normal_of(vertex.normal);
     out.curvature_per_mm = vertex.curvature_per_mm * draw.curvature_scale;
     out.uv = vertex.uv;
     out.world_tangent = vec4<f32>(
@@ -329,13 +388,6 @@ fn vs_main(vertex: VertexIn) -> VertexOut {
     out.transmission_2 = vec3<f32>(0.0);
     out.transmission_3 = vec3<f32>(0.0);
     out.vertex_radiance = vec3<f32>(0.0);
-    if INTERREFLECTION && MODEL != MODEL_CURVATURE {
-        out.vertex_radiance = interreflected_radiance(
-            out.world_position,
-            normalize(out.world_normal),
-            out.curvature_per_mm,
-        );
-    }
     // The environment light: its order-4 SH sum varies as slowly as the normal does, so per
     // vertex.
     if frame.environment_bands != 0u && MODEL != MODEL_CURVATURE {
@@ -346,34 +398,80 @@ fn vs_main(vertex: VertexIn) -> VertexOut {
             let phi = angle(dot(normal, to_camera_from(out.world_position)));
             environment *= view_value(0.0, phi);
         }
-        out.vertex_radiance += environment;
+        out.vertex_radiance = environment;
+    }
+    return out;
+}
+
+// A model-space normal in world space (not normalised).
+fn world_normal_of(normal: vec3<f32>) -> vec3<f32> {
+    return (draw.normal_from_model * vec4<f32>(normal, 0.0)).xyz;
+}
+
+// The vertex terms pass: the non-local terms of every vertex of the draw's mesh, once. A 2D
+// grid of 64-wide groups (a dimension holds at most 65 535 groups); vertex i = the invocation's
+// index along the grid's rows.
+@compute @workgroup_size(64)
+fn cs_vertex_terms(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let i = id.x + id.y * groups.x * 64u;
+    if i >= arrayLength(&terms_out) {
+        return;
+    }
+    let base = i * VERTEX_FLOATS;
+    let position = vec3<f32>(
+        terms_mesh_vertices[base + VERTEX_POSITION],
+        terms_mesh_vertices[base + VERTEX_POSITION + 1u],
+        terms_mesh_vertices[base + VERTEX_POSITION + 2u],
+    );
+    let model_normal = vec3<f32>(
+        terms_mesh_vertices[base + VERTEX_NORMAL],
+        terms_mesh_vertices[base + VERTEX_NORMAL + 1u],
+        terms_mesh_vertices[base + VERTEX_NORMAL + 2u],
+    );
+    let world = draw.world_from_model * vec4<f32>(position, 1.0);
+    let world_position = world.xyz / world.w;
+    let normal = normalize(world_normal_of(model_normal));
+    let curvature_per_mm = terms_mesh_vertices[base + VERTEX_CURVATURE] * draw.curvature_scale;
+
+    var terms: VertexTerms;
+    terms.visibility_0 = vec4<f32>(1.0);
+    terms.visibility_1 = vec4<f32>(1.0);
+    terms.visibility_2 = vec4<f32>(1.0);
+    terms.visibility_3 = vec4<f32>(1.0);
+    if INTERREFLECTION && MODEL != MODEL_CURVATURE {
+        terms.radiance = vec4<f32>(
+            interreflected_radiance(world_position, normal, curvature_per_mm),
+            0.0,
+        );
     }
     if (SHADOWS || TRANSMISSION || SUBSURFACE) && MODEL != MODEL_LAMBERT
         && MODEL != MODEL_CURVATURE {
         let count = min(shadows.light_count, frame.light_count);
-        let normal = normalize(out.world_normal);
         if count > 0u {
-            let terms = vertex_non_local(0u, out.world_position, normal, out.curvature_per_mm);
-            out.visibility_0 = terms.visibility;
-            out.transmission_0 = terms.transmission;
+            let light = vertex_non_local(0u, world_position, normal, curvature_per_mm);
+            terms.visibility_0 = vec4<f32>(light.visibility, 1.0);
+            terms.transmission_0 = vec4<f32>(light.transmission, 0.0);
         }
         if count > 1u {
-            let terms = vertex_non_local(1u, out.world_position, normal, out.curvature_per_mm);
-            out.visibility_1 = terms.visibility;
-            out.transmission_1 = terms.transmission;
+            let light = vertex_non_local(1u, world_position, normal, curvature_per_mm);
+            terms.visibility_1 = vec4<f32>(light.visibility, 1.0);
+            terms.transmission_1 = vec4<f32>(light.transmission, 0.0);
         }
         if count > 2u {
-            let terms = vertex_non_local(2u, out.world_position, normal, out.curvature_per_mm);
-            out.visibility_2 = terms.visibility;
-            out.transmission_2 = terms.transmission;
+            let light = vertex_non_local(2u, world_position, normal, curvature_per_mm);
+            terms.visibility_2 = vec4<f32>(light.visibility, 1.0);
+            terms.transmission_2 = vec4<f32>(light.transmission, 0.0);
         }
         if count > 3u {
-            let terms = vertex_non_local(3u, out.world_position, normal, out.curvature_per_mm);
-            out.visibility_3 = terms.visibility;
-            out.transmission_3 = terms.transmission;
+            let light = vertex_non_local(3u, world_position, normal, curvature_per_mm);
+            terms.visibility_3 = vec4<f32>(light.visibility, 1.0);
+            terms.transmission_3 = vec4<f32>(light.transmission, 0.0);
         }
     }
-    return out;
+    terms_out[i] = terms;
 }
 
 // Whether this material's subsurface gather is on (a diffusion profile, and the pipeline's).
@@ -1477,7 +1575,7 @@ fn vs_surfel(vertex: VertexIn, @builtin(instance_index) instance: u32) -> Surfel
         );
     }
     out.light_position_mm = light_frame_point(light, world);
-    let normal = (draw.normal_from_model * vec4<f32>(vertex.normal, 0.0)).xyz;
+    let normal = world_normal_of(vertex.normal);
     out.light_normal = light_frame_vector(light, normal);
     out.curvature_per_mm = vertex.curvature_per_mm * draw.curvature_scale;
     out.light = light;

@@ -187,6 +187,19 @@ pub enum PrepareError {
         /// Triangles in the mesh.
         triangles: u32,
     },
+    /// A draw with per-vertex non-local terms has more vertices than one storage binding of
+    /// the device holds terms for.
+    #[error(
+        "draw {index}: {vertices} vertices, but this device holds non-local terms for at most {max_vertices} per mesh"
+    )]
+    TooManyVertices {
+        /// The draw.
+        index: usize,
+        /// Its mesh's vertices.
+        vertices: u32,
+        /// The most the device's `max_storage_buffer_binding_size` allows.
+        max_vertices: u64,
+    },
     /// A draw's transform is singular, mirroring (negative determinant) or not finite.
     #[error("draw {index}: the model transform is singular, mirroring or not finite")]
     BadTransform {

@@ -5,7 +5,7 @@
 //! explicit padding to WGSL's alignment rules (vec3 and structs: 16 bytes).
 
 use bytemuck::{Pod, Zeroable};
-use cdrf_core::glam::{Mat4, Vec2, Vec3};
+use cdrf_core::glam::{Mat4, Vec2, Vec3, Vec4};
 
 use crate::shaders::{
     ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_COEFFICIENTS, ENVIRONMENT_ZONAL_ROWS, MAX_LIGHTS,
@@ -204,6 +204,51 @@ impl GpuVertex {
     pub(crate) const STRIDE: u64 = size_of::<GpuVertex>() as u64;
 }
 
+gpu_struct! {
+    /// One vertex's non-local terms, written by the vertex terms pass and read by the shading
+    /// pass as its second vertex buffer (`VertexTerms`; locations 5–13 of `VertexTermsIn`).
+    GpuVertexTerms as "VertexTerms" {
+        visibility_0: Vec4,
+        transmission_0: Vec4,
+        visibility_1: Vec4,
+        transmission_1: Vec4,
+        visibility_2: Vec4,
+        transmission_2: Vec4,
+        visibility_3: Vec4,
+        transmission_3: Vec4,
+        radiance: Vec4,
+    }
+}
+
+impl GpuVertexTerms {
+    /// The first shader location of the terms (`VertexTermsIn`).
+    const FIRST_LOCATION: u32 = 5;
+
+    /// The second vertex buffer's attributes: one `vec4<f32>` per field, in order.
+    pub(crate) const ATTRIBUTES: [wgpu::VertexAttribute; 9] = {
+        let mut attributes = [wgpu::VertexAttribute {
+            format: wgpu::VertexFormat::Float32x4,
+            offset: 0,
+            shader_location: 0,
+        }; 9];
+        let mut i = 0;
+        while i < attributes.len() {
+            attributes[i].offset = Self::LAYOUT.fields[i].1 as u64;
+            attributes[i].shader_location = Self::FIRST_LOCATION + i as u32;
+            i += 1;
+        }
+        attributes
+    };
+
+    /// Bytes per vertex.
+    pub(crate) const STRIDE: u64 = size_of::<GpuVertexTerms>() as u64;
+}
+
+/// The stages that read the shading shader's bind groups: the shading pass's and the vertex
+/// terms pass's (compute).
+pub(crate) const SHADING_STAGES: wgpu::ShaderStages =
+    wgpu::ShaderStages::VERTEX_FRAGMENT.union(wgpu::ShaderStages::COMPUTE);
+
 /// Size of a uniform struct, for bind group layouts' `min_binding_size`.
 pub(crate) const fn uniform_size<T>() -> std::num::NonZeroU64 {
     match std::num::NonZeroU64::new(size_of::<T>() as u64) {
@@ -237,7 +282,8 @@ mod tests {
     use crate::shaders::{shading_shader_source, shadow_shader_source};
 
     /// The uniform structs, each declared in the shader(s) that read it.
-    const UNIFORMS: [StructLayout; 8] = [
+    const UNIFORMS: [StructLayout; 9] = [
+        GpuVertexTerms::LAYOUT,
         GpuLight::LAYOUT,
         GpuFrame::LAYOUT,
         GpuPenumbraTap::LAYOUT,
@@ -306,6 +352,7 @@ mod tests {
             &shading_shader_source(),
             &UNIFORMS,
             &[
+                "VertexTerms",
                 "Light",
                 "Frame",
                 "PenumbraTap",
@@ -390,5 +437,30 @@ mod tests {
             .map(|a| a.offset as usize)
             .collect();
         assert_eq!(fields, offsets);
+
+        let (_, ty) = module
+            .types
+            .iter()
+            .find(|(_, ty)| ty.name.as_deref() == Some("VertexTermsIn"))
+            .expect("VertexTermsIn declared");
+        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+            panic!("VertexTermsIn is a struct");
+        };
+        let locations: Vec<(String, u32)> = members
+            .iter()
+            .filter_map(|member| match member.binding {
+                Some(naga::Binding::Location { location, .. }) => {
+                    Some((member.name.clone().unwrap_or_default(), location))
+                }
+                _ => None,
+            })
+            .collect();
+        let expected: Vec<(String, u32)> = GpuVertexTerms::LAYOUT
+            .fields
+            .iter()
+            .zip(GpuVertexTerms::ATTRIBUTES)
+            .map(|(field, attribute)| (field.0.to_string(), attribute.shader_location))
+            .collect();
+        assert_eq!(locations, expected);
     }
 }

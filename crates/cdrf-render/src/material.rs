@@ -10,7 +10,7 @@ use wgpu::util::DeviceExt;
 
 use crate::error::MaterialError;
 use crate::gpu_data::rgba16f_texels;
-use crate::gpu_types::{GpuMaterial, GpuPenumbraTap, uniform_layout_entry};
+use crate::gpu_types::{GpuMaterial, GpuPenumbraTap, SHADING_STAGES, uniform_layout_entry};
 use crate::shaders::{
     ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_ORDER, ENVIRONMENT_ZONAL_ROWS, Model, PENUMBRA_TAPS,
     SUBSURFACE_KERNEL_SAMPLES,
@@ -160,11 +160,11 @@ pub(crate) struct MaterialFactory {
 
 impl MaterialFactory {
     pub(crate) fn new(device: &wgpu::Device) -> Self {
-        // The tables are read per pixel, and per vertex by the inter-reflection (the response
-        // to the bounced light).
+        // The tables are read per pixel, and per vertex by the vertex terms pass (the
+        // inter-reflection's response to the bounced light, the gather's tables).
         let texture = |binding| wgpu::BindGroupLayoutEntry {
             binding,
-            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            visibility: SHADING_STAGES,
             ty: wgpu::BindingType::Texture {
                 sample_type: wgpu::TextureSampleType::Float { filterable: true },
                 view_dimension: wgpu::TextureViewDimension::D2,
@@ -175,12 +175,12 @@ impl MaterialFactory {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf material layout"),
             entries: &[
-                uniform_layout_entry::<GpuMaterial>(0, wgpu::ShaderStages::VERTEX_FRAGMENT, false),
+                uniform_layout_entry::<GpuMaterial>(0, SHADING_STAGES, false),
                 texture(1),
                 texture(2),
                 wgpu::BindGroupLayoutEntry {
                     binding: 3,
-                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    visibility: SHADING_STAGES,
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                     count: None,
                 },

@@ -117,6 +117,7 @@ impl<'a> MeshDesc<'a> {
 pub(crate) struct GpuMesh {
     pub(crate) vertices: wgpu::Buffer,
     pub(crate) indices: wgpu::Buffer,
+    pub(crate) vertex_count: u32,
     pub(crate) index_count: u32,
     /// Bounding sphere in model units: centre and radius.
     pub(crate) bounds: (Vec3, f32),
@@ -143,13 +144,15 @@ impl GpuMesh {
             vertices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("cdrf mesh vertices"),
                 contents: bytemuck::cast_slice(&vertices),
-                usage: wgpu::BufferUsages::VERTEX,
+                // Storage: the vertex terms pass reads them too.
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
             }),
             indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("cdrf mesh indices"),
                 contents: bytemuck::cast_slice(desc.indices),
                 usage: wgpu::BufferUsages::INDEX,
             }),
+            vertex_count: vertices.len() as u32,
             index_count: desc.indices.len() as u32,
             bounds: bounding_sphere(desc.positions),
         })

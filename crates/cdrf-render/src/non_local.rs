@@ -14,7 +14,8 @@ use cdrf_core::light::Light;
 
 use crate::frame::{Draw, FrameDesc};
 use crate::gpu_types::{
-    GpuShadowLight, GpuShadowPass, GpuShadows, GpuVertex, uniform_layout_entry, uniform_size,
+    GpuShadowLight, GpuShadowPass, GpuShadows, GpuVertex, SHADING_STAGES, uniform_layout_entry,
+    uniform_size,
 };
 use crate::mesh::{GpuMesh, MeshId};
 use crate::shaders::{
@@ -258,8 +259,8 @@ impl NonLocalPass {
     pub(crate) fn new(device: &wgpu::Device, draw_layout: &wgpu::BindGroupLayout) -> Self {
         let surfel_entry = |binding| wgpu::BindGroupLayoutEntry {
             binding,
-            // Gathered per vertex.
-            visibility: wgpu::ShaderStages::VERTEX,
+            // Gathered per vertex, by the vertex terms pass.
+            visibility: wgpu::ShaderStages::COMPUTE,
             ty: wgpu::BindingType::Texture {
                 sample_type: wgpu::TextureSampleType::Float { filterable: false },
                 view_dimension: wgpu::TextureViewDimension::D2Array,
@@ -270,11 +271,12 @@ impl NonLocalPass {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf shadows layout"),
             entries: &[
-                uniform_layout_entry::<GpuShadows>(0, wgpu::ShaderStages::VERTEX_FRAGMENT, false),
+                uniform_layout_entry::<GpuShadows>(0, SHADING_STAGES, false),
                 wgpu::BindGroupLayoutEntry {
                     binding: 1,
-                    // Read per vertex (translucent materials) and per pixel (Lambert).
-                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    // Read per vertex (translucent materials, by the vertex terms pass; the
+                    // surfel passes' vertices) and per pixel (Lambert).
+                    visibility: SHADING_STAGES,
                     ty: wgpu::BindingType::Texture {
                         sample_type: wgpu::TextureSampleType::Depth,
                         view_dimension: wgpu::TextureViewDimension::D2Array,

@@ -1,5 +1,6 @@
 //! The shading pipelines, built on demand and cached per target, shading model and
-//! non-local terms, and the surfel pass's pipelines (one per shading model).
+//! non-local terms, the vertex terms pass's (per shading model and non-local terms) and the
+//! surfel pass's pipelines (one per shading model).
 
 use std::collections::HashMap;
 
@@ -7,7 +8,7 @@ use cdrf_core::light::NonLocal;
 
 use crate::error::PrepareError;
 use crate::gpu_data::block_on;
-use crate::gpu_types::GpuVertex;
+use crate::gpu_types::{GpuDraw, GpuVertex, GpuVertexTerms, uniform_layout_entry};
 use crate::non_local::{SUBSURFACE_FORMAT, SURFEL_FORMAT, SURFEL_TARGETS};
 use crate::shaders::{Model, shading_shader_source};
 use crate::target::{LutFiltering, Options, TargetDesc};
@@ -15,11 +16,27 @@ use crate::target::{LutFiltering, Options, TargetDesc};
 /// The pipeline variants' key: target, shading model, non-local terms.
 type PipelineKey = (TargetDesc, Model, NonLocal);
 
-/// The shading shader, its layout and the pipelines built from them.
+/// Whether a shading pipeline reads per-vertex non-local terms, which the vertex terms pass
+/// (`cs_vertex_terms`) writes: the translucent models' visibility, transmission and gather,
+/// and every model's inter-reflection but the curvature view's (Lambert's other terms are
+/// per pixel).
+pub(crate) fn uses_vertex_terms(model: Model, non_local: NonLocal) -> bool {
+    model != Model::Curvature
+        && (non_local.interreflection
+            || (model != Model::Lambert
+                && (non_local.shadows || non_local.transmission || non_local.subsurface)))
+}
+
+/// The shading shader, its layouts and the pipelines built from them.
 pub(crate) struct Pipelines {
     shader: wgpu::ShaderModule,
     layout: wgpu::PipelineLayout,
+    /// The vertex terms pass's group 2: the draw's transforms (dynamic offset), the mesh's
+    /// vertices and the terms it writes.
+    terms_layout: wgpu::BindGroupLayout,
+    terms_pipeline_layout: wgpu::PipelineLayout,
     cache: HashMap<PipelineKey, wgpu::RenderPipeline>,
+    terms_cache: HashMap<(Model, NonLocal), wgpu::ComputePipeline>,
     surfel_cache: HashMap<Model, wgpu::RenderPipeline>,
     subsurface_map: Option<wgpu::RenderPipeline>,
 }
@@ -39,9 +56,42 @@ impl Pipelines {
             bind_group_layouts: &bind_group_layouts.map(Some),
             immediate_size: 0,
         });
+        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let terms_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cdrf vertex terms layout"),
+            entries: &[
+                uniform_layout_entry::<GpuDraw>(0, wgpu::ShaderStages::COMPUTE, true),
+                storage(7, true),
+                storage(8, false),
+            ],
+        });
+        let [frame, material, _, shadows] = bind_group_layouts;
+        let terms_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("cdrf vertex terms pipeline layout"),
+                bind_group_layouts: &[
+                    Some(frame),
+                    Some(material),
+                    Some(&terms_layout),
+                    Some(shadows),
+                ],
+                immediate_size: 0,
+            });
         Self {
             shader,
             layout,
+            terms_layout,
+            terms_pipeline_layout,
+            terms_cache: HashMap::new(),
             cache: HashMap::new(),
             surfel_cache: HashMap::new(),
             subsurface_map: None,
@@ -58,8 +108,23 @@ impl Pipelines {
         self.cache.get(&(target, model, non_local))
     }
 
-    /// Builds the pipeline of a variant unless cached. wgpu reports a target the device cannot
-    /// use through an error scope, returned here instead of reaching the host's
+    /// The vertex terms pass's group 2 layout (bindings 0, 7 and 8 of the shading shader).
+    pub(crate) fn terms_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.terms_layout
+    }
+
+    /// The vertex terms pass's pipeline of a shading model and its non-local terms, if built.
+    pub(crate) fn vertex_terms(
+        &self,
+        model: Model,
+        non_local: NonLocal,
+    ) -> Option<&wgpu::ComputePipeline> {
+        self.terms_cache.get(&(model, non_local))
+    }
+
+    /// Builds the pipeline of a variant unless cached, and the vertex terms pass's pipeline
+    /// it reads from if it [uses one](uses_vertex_terms). wgpu reports a target the device
+    /// cannot use through an error scope, returned here instead of reaching the host's
     /// uncaptured-error handler.
     pub(crate) fn ensure(
         &mut self,
@@ -73,6 +138,7 @@ impl Pipelines {
         if self.cache.contains_key(&key) {
             return Ok(());
         }
+        let terms = uses_vertex_terms(model, non_local);
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let constants = [
             ("MODEL", model as u32 as f64),
@@ -90,18 +156,36 @@ impl Pipelines {
             constants: &constants,
             ..Default::default()
         };
+        let vertices = Some(wgpu::VertexBufferLayout {
+            array_stride: GpuVertex::STRIDE,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &GpuVertex::ATTRIBUTES,
+        });
+        let vertex_terms = Some(wgpu::VertexBufferLayout {
+            array_stride: GpuVertexTerms::STRIDE,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &GpuVertexTerms::ATTRIBUTES,
+        });
+        let buffers = [vertices, vertex_terms];
+        let terms_pipeline =
+            (terms && !self.terms_cache.contains_key(&(model, non_local))).then(|| {
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some("cdrf vertex terms pipeline"),
+                    layout: Some(&self.terms_pipeline_layout),
+                    module: &self.shader,
+                    entry_point: Some("cs_vertex_terms"),
+                    compilation_options: compilation_options.clone(),
+                    cache: None,
+                })
+            });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("cdrf pipeline"),
             layout: Some(&self.layout),
             vertex: wgpu::VertexState {
                 module: &self.shader,
-                entry_point: Some("vs_main"),
+                entry_point: Some(if terms { "vs_main_terms" } else { "vs_main" }),
                 compilation_options: compilation_options.clone(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: GpuVertex::STRIDE,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &GpuVertex::ATTRIBUTES,
-                })],
+                buffers: if terms { &buffers } else { &buffers[..1] },
             },
             primitive: wgpu::PrimitiveState {
                 topology: wgpu::PrimitiveTopology::TriangleList,
@@ -140,6 +224,9 @@ impl Pipelines {
             });
         }
         self.cache.insert(key, pipeline);
+        if let Some(terms_pipeline) = terms_pipeline {
+            self.terms_cache.insert((model, non_local), terms_pipeline);
+        }
         Ok(())
     }
 

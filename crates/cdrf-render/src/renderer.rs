@@ -9,11 +9,13 @@ use cdrf_core::specular::SpecularLayer;
 
 use crate::error::{MaterialError, MeshUploadError, PrepareError, SurfaceError};
 use crate::frame::{FrameDesc, ToCamera};
-use crate::gpu_types::{GpuDraw, GpuFrame, GpuLight, uniform_layout_entry, uniform_size};
+use crate::gpu_types::{
+    GpuDraw, GpuFrame, GpuLight, GpuVertexTerms, SHADING_STAGES, uniform_layout_entry, uniform_size,
+};
 use crate::material::{GpuMaterialEntry, MaterialDesc, MaterialFactory, MaterialId};
 use crate::mesh::{GpuMesh, MeshDesc, MeshId};
 use crate::non_local::{NonLocalPass, ShadowCaster, SurfelBindings};
-use crate::pipelines::Pipelines;
+use crate::pipelines::{Pipelines, uses_vertex_terms};
 use crate::shaders::{
     ENVIRONMENT_SH_ORDER, GPU_LIGHT_DIRECTIONAL, GPU_LIGHT_POINT, GPU_LIGHT_SPOT, MAX_LIGHTS, Model,
 };
@@ -32,7 +34,24 @@ struct PreparedDraw {
     indices: std::ops::Range<u32>,
     /// The draw's transforms in the draw buffer.
     offset: u32,
+    /// Its vertices' non-local terms in the terms buffer (bytes), if its pipeline reads them.
+    terms: Option<std::ops::Range<u64>>,
 }
+
+/// One run of the vertex terms pass: a mesh's vertices under one transform, material and set
+/// of non-local terms (draws that share all four share its terms).
+struct TermsRegion {
+    key: TermsKey,
+    model: Model,
+    /// Its first draw's transforms in the draw buffer.
+    draw_offset: u32,
+    vertex_count: u32,
+    /// Where its terms go in the terms buffer (bytes).
+    range: std::ops::Range<u64>,
+}
+
+/// What a vertex's terms depend on: mesh, material, non-local terms, the transform's bits.
+type TermsKey = (MeshId, MaterialId, NonLocal, [u32; 16]);
 
 /// Shades curvature-tagged meshes with a CDRF inside the host's render pass.
 ///
@@ -53,6 +72,10 @@ pub struct Renderer {
     draw_buffer: wgpu::Buffer,
     draw_stride: u64,
     draw_capacity: u64,
+    /// The vertex terms pass's output, the shading pass's second vertex buffer (grown as
+    /// needed; `terms_capacity` bytes).
+    terms_buffer: wgpu::Buffer,
+    terms_capacity: u64,
     /// The surface of draws without one (white, no textures), made by the first `prepare`
     /// (its textures need the queue); its bind group also serves the non-local passes, which
     /// read only the draw buffer.
@@ -84,11 +107,7 @@ impl Renderer {
     pub fn new(device: &wgpu::Device, target: &TargetDesc, options: Options) -> Self {
         let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf frame layout"),
-            entries: &[uniform_layout_entry::<GpuFrame>(
-                0,
-                wgpu::ShaderStages::VERTEX_FRAGMENT,
-                false,
-            )],
+            entries: &[uniform_layout_entry::<GpuFrame>(0, SHADING_STAGES, false)],
         });
         let [t0, t1, t2, s0, s1, s2] = crate::surface::texture_layout_entries();
         let draw_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -132,6 +151,8 @@ impl Renderer {
         let draw_stride = uniform_size::<GpuDraw>().get().next_multiple_of(alignment);
         let draw_capacity = 16;
         let draw_buffer = create_draw_buffer(device, draw_stride, draw_capacity);
+        let terms_capacity = GpuVertexTerms::STRIDE;
+        let terms_buffer = create_terms_buffer(device, terms_capacity);
         Self {
             options,
             target: *target,
@@ -144,6 +165,8 @@ impl Renderer {
             draw_buffer,
             draw_stride,
             draw_capacity,
+            terms_buffer,
+            terms_capacity,
             default_surface: None,
             meshes: HashMap::new(),
             materials: HashMap::new(),
@@ -399,6 +422,11 @@ impl Renderer {
 
         let mut draws = vec![0u8; frame.draws.len() * self.draw_stride as usize];
         let mut prepared = Vec::with_capacity(frame.draws.len());
+        let mut regions: Vec<TermsRegion> = Vec::new();
+        let terms_alignment = u64::from(device.limits().min_storage_buffer_offset_alignment);
+        let max_terms_vertices =
+            device.limits().max_storage_buffer_binding_size / GpuVertexTerms::STRIDE;
+        let mut terms_end = 0;
         for (index, draw) in frame.draws.iter().enumerate() {
             let Some(mesh) = self.meshes.get(&draw.mesh) else {
                 return Err(PrepareError::UnknownMesh {
@@ -450,6 +478,37 @@ impl Renderer {
             if non_local.subsurface {
                 self.pipelines.ensure_subsurface_map(device)?;
             }
+            let terms = if uses_vertex_terms(model, non_local) {
+                let key = (
+                    draw.mesh,
+                    draw.material,
+                    non_local,
+                    draw.world_from_model.to_cols_array().map(f32::to_bits),
+                );
+                if let Some(region) = regions.iter().find(|region| region.key == key) {
+                    Some(region.range.clone())
+                } else {
+                    if u64::from(mesh.vertex_count) > max_terms_vertices {
+                        return Err(PrepareError::TooManyVertices {
+                            index,
+                            vertices: mesh.vertex_count,
+                            max_vertices: max_terms_vertices,
+                        });
+                    }
+                    let start = u64::next_multiple_of(terms_end, terms_alignment);
+                    terms_end = start + u64::from(mesh.vertex_count) * GpuVertexTerms::STRIDE;
+                    regions.push(TermsRegion {
+                        key,
+                        model,
+                        draw_offset: offset as u32,
+                        vertex_count: mesh.vertex_count,
+                        range: start..terms_end,
+                    });
+                    Some(start..terms_end)
+                }
+            } else {
+                None
+            };
             prepared.push(PreparedDraw {
                 model,
                 non_local,
@@ -458,6 +517,7 @@ impl Renderer {
                 surface: draw.surface,
                 indices: 3 * triangles.start..3 * triangles.end,
                 offset: offset as u32,
+                terms,
             });
         }
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame_uniforms));
@@ -478,6 +538,10 @@ impl Renderer {
         }
         if !draws.is_empty() {
             queue.write_buffer(&self.draw_buffer, 0, &draws);
+        }
+        if terms_end > self.terms_capacity {
+            self.terms_capacity = terms_end.next_power_of_two();
+            self.terms_buffer = create_terms_buffer(device, self.terms_capacity);
         }
         let mut commands = Vec::new();
         if frame.non_local.any() && !prepared.is_empty() {
@@ -522,8 +586,74 @@ impl Renderer {
                 ),
             );
         }
+        if !regions.is_empty() {
+            commands.push(self.vertex_terms_pass(device, &regions));
+        }
         self.prepared = prepared;
         Ok(commands)
+    }
+
+    /// The vertex terms pass: each region's vertices' non-local terms, once, after the light
+    /// maps they read.
+    fn vertex_terms_pass(
+        &self,
+        device: &wgpu::Device,
+        regions: &[TermsRegion],
+    ) -> wgpu::CommandBuffer {
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("cdrf vertex terms"),
+        });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("cdrf vertex terms"),
+                timestamp_writes: None,
+            });
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            pass.set_bind_group(3, self.non_local.bind_group(), &[]);
+            for region in regions {
+                let (mesh_id, material_id, non_local, _) = region.key;
+                let (Some(mesh), Some(material), Some(pipeline)) = (
+                    self.meshes.get(&mesh_id),
+                    self.materials.get(&material_id),
+                    self.pipelines.vertex_terms(region.model, non_local),
+                ) else {
+                    continue;
+                };
+                let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("cdrf vertex terms"),
+                    layout: self.pipelines.terms_layout(),
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: wgpu::BindingResource::Buffer(draw_binding(
+                                &self.draw_buffer,
+                            )),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 7,
+                            resource: mesh.vertices.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 8,
+                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                buffer: &self.terms_buffer,
+                                offset: region.range.start,
+                                size: wgpu::BufferSize::new(region.range.end - region.range.start),
+                            }),
+                        },
+                    ],
+                });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(1, &material.bind_group, &[]);
+                pass.set_bind_group(2, &bind_group, &[region.draw_offset]);
+                // 64 vertices a group (the shader's workgroup size), on a grid whose rows
+                // hold at most 65 535 groups.
+                let groups = region.vertex_count.div_ceil(64);
+                let columns = groups.clamp(1, 65_535);
+                pass.dispatch_workgroups(columns, groups.div_ceil(columns), 1);
+            }
+        }
+        encoder.finish()
     }
 
     /// Records the prepared draws into the host's pass (whose attachments must match the
@@ -590,6 +720,9 @@ impl Renderer {
             pass.set_bind_group(1, &material.bind_group, &[]);
             pass.set_bind_group(2, &surface.bind_group, &[draw.offset]);
             pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+            if let Some(terms) = &draw.terms {
+                pass.set_vertex_buffer(1, self.terms_buffer.slice(terms.clone()));
+            }
             pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(draw.indices.clone(), 0, 0..1);
         }
@@ -696,6 +829,16 @@ fn draw_uniforms(world_from_model: Mat4, surface: &SurfaceParameters) -> Option<
         roughness_factor: surface.roughness_factor,
         surface_flags: surface.flags,
         _pad0: 0.0,
+    })
+}
+
+/// The vertex terms buffer: written by the vertex terms pass, read as a vertex buffer.
+fn create_terms_buffer(device: &wgpu::Device, size: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("cdrf vertex terms"),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::VERTEX,
+        mapped_at_creation: false,
     })
 }
 

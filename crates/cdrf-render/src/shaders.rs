@@ -4,6 +4,10 @@
 //! Each shader is: [`wgsl_constants`], then `shaders/common.wgsl` (the declarations the passes
 //! share), then the shader's own file.
 
+use std::mem::offset_of;
+
+use crate::gpu_types::GpuVertex;
+
 /// Most lights in one frame.
 pub const MAX_LIGHTS: usize = 16;
 /// Lights with a shadow map: the first four of a frame, directional lights first (an
@@ -90,6 +94,20 @@ pub fn wgsl_constants() -> String {
         ("SURFACE_ROUGHNESS", crate::surface::SURFACE_ROUGHNESS),
         ("SHADOW_ORTHOGRAPHIC", GPU_SHADOW_ORTHOGRAPHIC),
         ("SHADOW_PERSPECTIVE", GPU_SHADOW_PERSPECTIVE),
+    ] {
+        wgsl.push_str(&format!("const {name}: u32 = {value}u;\n"));
+    }
+    // Where the vertex terms pass finds a vertex's attributes in the mesh's vertex buffer,
+    // read as f32s.
+    let float = size_of::<f32>();
+    for (name, value) in [
+        ("VERTEX_FLOATS", GpuVertex::STRIDE as usize / float),
+        ("VERTEX_POSITION", offset_of!(GpuVertex, position) / float),
+        ("VERTEX_NORMAL", offset_of!(GpuVertex, normal) / float),
+        (
+            "VERTEX_CURVATURE",
+            offset_of!(GpuVertex, curvature_per_mm) / float,
+        ),
     ] {
         wgsl.push_str(&format!("const {name}: u32 = {value}u;\n"));
     }
