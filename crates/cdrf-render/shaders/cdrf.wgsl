@@ -997,6 +997,8 @@ fn non_local_terms(
     let texel_mm = texel_width_mm(index, p);
     let sigma = material.scattering_length_mm;
     let sigma_max = max(sigma.x, max(sigma.y, sigma.z));
+    // T(d, μ), unless the subsurface gather brings that light instead (vertex_non_local).
+    let transmits = TRANSMISSION && !gathers_subsurface();
     var taps = 1u;
     if sigma_max > texel_mm {
         taps = PENUMBRA_TAPS;
@@ -1042,14 +1044,14 @@ fn non_local_terms(
             // The entry cosine at the first occluded column only: read at every occluded
             // column instead, the torus's errors against path tracing moved by ≤ 1.6 points
             // (cast shadow 111.5 % instead of 109.9 %).
-            if TRANSMISSION && through_entry_cosine < 0.0 {
+            if transmits && through_entry_cosine < 0.0 {
                 through_entry_cosine =
                     entry_cosine(column.layer, column.texel, texel_mm, depth_range_mm);
             }
         } else {
             unoccluded += weight;
             lit += 1u;
-            if k == 0u && TRANSMISSION && n_along > 0.0 {
+            if k == 0u && transmits && n_along > 0.0 {
                 thin = thin_part_transmission(
                     column.layer,
                     column.texel,
@@ -1064,7 +1066,7 @@ fn non_local_terms(
     var terms: NonLocalTerms;
     terms.visibility = unoccluded / weights;
     terms.transmission = thin * smoothstep(0.0, THIN_PART_FADE_END, n_along);
-    if SHADOWS && TRANSMISSION && counted > lit {
+    if SHADOWS && transmits && counted > lit {
         // Light through the occluders, at their mean thickness and entry cosine (one T per
         // light).
         let occluded = f32(counted - lit);
