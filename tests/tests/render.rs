@@ -698,6 +698,80 @@ impl LambertSphere {
     }
 }
 
+/// A device without compute shaders or storage buffers (WebGL 2's limits say 0 storage
+/// buffers): the renderer is made and draws the local models, and a frame that asks for the
+/// per-vertex non-local terms (which the vertex terms pass computes) is refused with a
+/// clear error instead of a validation error.
+#[test]
+fn a_device_without_compute_refuses_the_vertex_terms_only() {
+    use cdrf_render::{
+        Draw, FrameDesc, MaterialDesc, MeshDesc, PrepareError, Renderer, TargetDesc,
+    };
+    fn block_on<F: std::future::Future>(future: F) -> F::Output {
+        let mut future = std::pin::pin!(future);
+        let mut context = std::task::Context::from_waker(std::task::Waker::noop());
+        loop {
+            if let std::task::Poll::Ready(value) = future.as_mut().poll(&mut context) {
+                return value;
+            }
+            std::thread::yield_now();
+        }
+    }
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+    let adapter = block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN))
+        .into_iter()
+        .find(|adapter| adapter.get_info().device_type == wgpu::DeviceType::Cpu)
+        .expect("lavapipe (see README)");
+    let limits = wgpu::Limits {
+        max_storage_buffers_per_shader_stage: 0,
+        ..wgpu::Limits::default().using_resolution(adapter.limits())
+    };
+    let (device, queue) = block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        required_limits: limits,
+        ..Default::default()
+    }))
+    .expect("a device with fewer limits than the adapter's");
+    let target = TargetDesc::new(wgpu::TextureFormat::Rgba8UnormSrgb);
+    let mut renderer = Renderer::new(&device, &target, Options::PREDICTABLE);
+    let sphere = cdrf_core::Mesh::icosphere(20.0, 2);
+    let curvature = vec![1.0 / 20.0; sphere.positions.len()];
+    let mesh = renderer
+        .create_mesh(&device, &MeshDesc::from_mesh(&sphere, &curvature))
+        .unwrap();
+    let material = renderer
+        .create_material(&device, &queue, &MaterialDesc::Lambert { albedo: [0.8; 3] })
+        .unwrap();
+    let draws = [Draw::new(mesh, material, glam::Mat4::IDENTITY)];
+    let view = LambertSphere::new(wgpu::TextureFormat::Rgba8UnormSrgb, 1).view;
+    let frame = |non_local| FrameDesc {
+        view,
+        lights: &ONE_LIGHT,
+        exposure: 1.0,
+        draws: &draws,
+        non_local,
+        mm_per_world_unit: 1.0,
+        environment: None,
+    };
+    renderer
+        .prepare(&device, &queue, &frame(NonLocal::OFF))
+        .unwrap();
+    // Lambert's shadows are per pixel: no vertex terms.
+    let shadows = NonLocal {
+        shadows: true,
+        ..NonLocal::OFF
+    };
+    renderer.prepare(&device, &queue, &frame(shadows)).unwrap();
+    // Its inter-reflection is per vertex.
+    let error = renderer
+        .prepare(&device, &queue, &frame(NonLocal::ALL))
+        .unwrap_err();
+    println!("{error}");
+    assert!(
+        matches!(error, PrepareError::NoComputeShaders { index: 0 }),
+        "{error}"
+    );
+}
+
 /// The middleware contract: `render` before `prepare` draws nothing and does not panic; a
 /// failed `prepare` draws nothing; a new target gets its own pipeline.
 #[test]

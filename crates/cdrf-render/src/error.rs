@@ -187,6 +187,16 @@ pub enum PrepareError {
         /// Triangles in the mesh.
         triangles: u32,
     },
+    /// A draw asks for per-vertex non-local terms, which the vertex terms pass (a compute
+    /// shader writing a storage buffer) computes, on a device without compute shaders or
+    /// storage buffers (e.g. WebGL 2's limits).
+    #[error(
+        "draw {index}: the non-local terms need compute shaders and storage buffers, which this device lacks"
+    )]
+    NoComputeShaders {
+        /// The draw.
+        index: usize,
+    },
     /// A draw with per-vertex non-local terms has more vertices than one storage binding of
     /// the device holds terms for.
     #[error(

@@ -6,6 +6,7 @@ use wgpu::util::DeviceExt;
 
 use crate::error::MeshUploadError;
 use crate::gpu_types::GpuVertex;
+use crate::pipelines::runs_vertex_terms;
 
 /// A mesh uploaded with [`Renderer::create_mesh`](crate::Renderer::create_mesh).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -144,8 +145,12 @@ impl GpuMesh {
             vertices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("cdrf mesh vertices"),
                 contents: bytemuck::cast_slice(&vertices),
-                // Storage: the vertex terms pass reads them too.
-                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
+                // Storage: the vertex terms pass reads them too, where the device runs it.
+                usage: if runs_vertex_terms(&device.limits()) {
+                    wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE
+                } else {
+                    wgpu::BufferUsages::VERTEX
+                },
             }),
             indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("cdrf mesh indices"),

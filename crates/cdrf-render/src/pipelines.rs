@@ -27,14 +27,22 @@ pub(crate) fn uses_vertex_terms(model: Model, non_local: NonLocal) -> bool {
                 && (non_local.shadows || non_local.transmission || non_local.subsurface)))
 }
 
+/// Whether a device with these limits runs the vertex terms pass: a compute shader of 64
+/// invocations a group reading the mesh's vertices and writing the terms (two storage buffers).
+pub(crate) fn runs_vertex_terms(limits: &wgpu::Limits) -> bool {
+    limits.max_storage_buffers_per_shader_stage >= 2
+        && limits.max_compute_workgroup_size_x >= 64
+        && limits.max_compute_invocations_per_workgroup >= 64
+}
+
 /// The shading shader, its layouts and the pipelines built from them.
 pub(crate) struct Pipelines {
     shader: wgpu::ShaderModule,
     layout: wgpu::PipelineLayout,
-    /// The vertex terms pass's group 2: the draw's transforms (dynamic offset), the mesh's
-    /// vertices and the terms it writes.
-    terms_layout: wgpu::BindGroupLayout,
-    terms_pipeline_layout: wgpu::PipelineLayout,
+    /// The vertex terms pass's group 2 (the draw's transforms with a dynamic offset, the
+    /// mesh's vertices and the terms it writes) and its pipeline layout; `None` on a device
+    /// without compute shaders or storage buffers.
+    terms_layouts: Option<(wgpu::BindGroupLayout, wgpu::PipelineLayout)>,
     cache: HashMap<PipelineKey, wgpu::RenderPipeline>,
     terms_cache: HashMap<(Model, NonLocal), wgpu::ComputePipeline>,
     surfel_cache: HashMap<Model, wgpu::RenderPipeline>,
@@ -66,17 +74,17 @@ impl Pipelines {
             },
             count: None,
         };
-        let terms_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("cdrf vertex terms layout"),
-            entries: &[
-                uniform_layout_entry::<GpuDraw>(0, wgpu::ShaderStages::COMPUTE, true),
-                storage(7, true),
-                storage(8, false),
-            ],
-        });
-        let [frame, material, _, shadows] = bind_group_layouts;
-        let terms_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let terms_layouts = runs_vertex_terms(&device.limits()).then(|| {
+            let terms_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("cdrf vertex terms layout"),
+                entries: &[
+                    uniform_layout_entry::<GpuDraw>(0, wgpu::ShaderStages::COMPUTE, true),
+                    storage(7, true),
+                    storage(8, false),
+                ],
+            });
+            let [frame, material, _, shadows] = bind_group_layouts;
+            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("cdrf vertex terms pipeline layout"),
                 bind_group_layouts: &[
                     Some(frame),
@@ -86,11 +94,12 @@ impl Pipelines {
                 ],
                 immediate_size: 0,
             });
+            (terms_layout, pipeline_layout)
+        });
         Self {
             shader,
             layout,
-            terms_layout,
-            terms_pipeline_layout,
+            terms_layouts,
             terms_cache: HashMap::new(),
             cache: HashMap::new(),
             surfel_cache: HashMap::new(),
@@ -108,9 +117,15 @@ impl Pipelines {
         self.cache.get(&(target, model, non_local))
     }
 
-    /// The vertex terms pass's group 2 layout (bindings 0, 7 and 8 of the shading shader).
-    pub(crate) fn terms_layout(&self) -> &wgpu::BindGroupLayout {
-        &self.terms_layout
+    /// Whether the device runs the vertex terms pass (compute shaders, storage buffers).
+    pub(crate) fn has_vertex_terms(&self) -> bool {
+        self.terms_layouts.is_some()
+    }
+
+    /// The vertex terms pass's group 2 layout (bindings 0, 7 and 8 of the shading shader), if
+    /// the device runs it.
+    pub(crate) fn terms_layout(&self) -> Option<&wgpu::BindGroupLayout> {
+        self.terms_layouts.as_ref().map(|(layout, _)| layout)
     }
 
     /// The vertex terms pass's pipeline of a shading model and its non-local terms, if built.
@@ -167,17 +182,21 @@ impl Pipelines {
             attributes: &GpuVertexTerms::ATTRIBUTES,
         });
         let buffers = [vertices, vertex_terms];
-        let terms_pipeline =
-            (terms && !self.terms_cache.contains_key(&(model, non_local))).then(|| {
-                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some("cdrf vertex terms pipeline"),
-                    layout: Some(&self.terms_pipeline_layout),
-                    module: &self.shader,
-                    entry_point: Some("cs_vertex_terms"),
-                    compilation_options: compilation_options.clone(),
-                    cache: None,
-                })
-            });
+        let terms_pipeline_layout = self
+            .terms_layouts
+            .as_ref()
+            .filter(|_| terms && !self.terms_cache.contains_key(&(model, non_local)))
+            .map(|(_, layout)| layout);
+        let terms_pipeline = terms_pipeline_layout.map(|layout| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("cdrf vertex terms pipeline"),
+                layout: Some(layout),
+                module: &self.shader,
+                entry_point: Some("cs_vertex_terms"),
+                compilation_options: compilation_options.clone(),
+                cache: None,
+            })
+        });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("cdrf pipeline"),
             layout: Some(&self.layout),

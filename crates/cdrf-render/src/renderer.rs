@@ -15,7 +15,7 @@ use crate::gpu_types::{
 use crate::material::{GpuMaterialEntry, MaterialDesc, MaterialFactory, MaterialId};
 use crate::mesh::{GpuMesh, MeshDesc, MeshId};
 use crate::non_local::{NonLocalPass, ShadowCaster, SurfelBindings};
-use crate::pipelines::{Pipelines, uses_vertex_terms};
+use crate::pipelines::{Pipelines, runs_vertex_terms, uses_vertex_terms};
 use crate::shaders::{
     ENVIRONMENT_SH_ORDER, GPU_LIGHT_DIRECTIONAL, GPU_LIGHT_POINT, GPU_LIGHT_SPOT, MAX_LIGHTS, Model,
 };
@@ -470,6 +470,9 @@ impl Renderer {
             } else {
                 frame.non_local
             };
+            if uses_vertex_terms(model, non_local) && !self.pipelines.has_vertex_terms() {
+                return Err(PrepareError::NoComputeShaders { index });
+            }
             self.pipelines
                 .ensure(device, &self.options, self.target, model, non_local)?;
             if non_local.interreflection {
@@ -612,16 +615,17 @@ impl Renderer {
             pass.set_bind_group(3, self.non_local.bind_group(), &[]);
             for region in regions {
                 let (mesh_id, material_id, non_local, _) = region.key;
-                let (Some(mesh), Some(material), Some(pipeline)) = (
+                let (Some(mesh), Some(material), Some(pipeline), Some(layout)) = (
                     self.meshes.get(&mesh_id),
                     self.materials.get(&material_id),
                     self.pipelines.vertex_terms(region.model, non_local),
+                    self.pipelines.terms_layout(),
                 ) else {
                     continue;
                 };
                 let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("cdrf vertex terms"),
-                    layout: self.pipelines.terms_layout(),
+                    layout,
                     entries: &[
                         wgpu::BindGroupEntry {
                             binding: 0,
@@ -832,12 +836,18 @@ fn draw_uniforms(world_from_model: Mat4, surface: &SurfaceParameters) -> Option<
     })
 }
 
-/// The vertex terms buffer: written by the vertex terms pass, read as a vertex buffer.
+/// The vertex terms buffer: written by the vertex terms pass, read as a vertex buffer (a
+/// vertex buffer only, never written, on a device that does not run the pass).
 fn create_terms_buffer(device: &wgpu::Device, size: u64) -> wgpu::Buffer {
+    let usage = if runs_vertex_terms(&device.limits()) {
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::VERTEX
+    } else {
+        wgpu::BufferUsages::VERTEX
+    };
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("cdrf vertex terms"),
         size,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::VERTEX,
+        usage,
         mapped_at_creation: false,
     })
 }
