@@ -707,7 +707,7 @@ fn a_device_without_compute_refuses_the_vertex_terms_only() {
     use cdrf_render::{
         Draw, FrameDesc, MaterialDesc, MeshDesc, PrepareError, Renderer, TargetDesc,
     };
-    fn block_on<F: std::future::Future>(future: F) -> F::Output {
+    fn block_on<F: Future>(future: F) -> F::Output {
         let mut future = std::pin::pin!(future);
         let mut context = std::task::Context::from_waker(std::task::Waker::noop());
         loop {
