@@ -96,9 +96,11 @@
 //! a directional light; for a point or spot light a perspective face aimed at the draws, or a
 //! cube of six faces when the light is among them — and returns its
 //! command buffer, which the host submits before the commands of its own pass (egui-wgpu's
-//! callbacks return it from their `prepare`). The shading reads the maps per vertex (the terms
-//! vary over the scattering length, millimetres, so meshes with shorter edges resolve them;
-//! Lambert's hard shadows per pixel). A measured table carries its material terms
+//! callbacks return it from their `prepare`). The terms are evaluated per vertex (they vary
+//! over the scattering length, millimetres, so meshes with shorter edges resolve them;
+//! Lambert's hard shadows per pixel), once per vertex and frame by a compute pass recorded in
+//! the same command buffers after the maps (the device needs compute shaders and storage
+//! buffers for it: [`PrepareError::NoComputeShaders`] otherwise). A measured table carries its material terms
 //! (LUT file format version 3, or 2 without the entry cosine); the Gaussian CDRF uses its σ as scattering length and has no
 //! T(d); Lambert gets hard shadows.
 //!
