@@ -410,20 +410,27 @@ mod tests {
     #[test]
     fn vertex_attributes_match_the_wgsl() {
         let module = naga::front::wgsl::parse_str(&shading_shader_source()).expect("parses");
-        let (_, ty) = module
-            .types
-            .iter()
-            .find(|(_, ty)| ty.name.as_deref() == Some("VertexIn"))
-            .expect("VertexIn declared");
-        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-            panic!("VertexIn is a struct");
+        // (name, location) of each member of the WGSL struct `name`.
+        let locations_of = |name: &str| -> Vec<(String, u32)> {
+            let (_, ty) = module
+                .types
+                .iter()
+                .find(|(_, ty)| ty.name.as_deref() == Some(name))
+                .unwrap_or_else(|| panic!("{name} declared"));
+            let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+                panic!("{name} is a struct");
+            };
+            members
+                .iter()
+                .filter_map(|member| match member.binding {
+                    Some(naga::Binding::Location { location, .. }) => {
+                        Some((member.name.clone().unwrap_or_default(), location))
+                    }
+                    _ => None,
+                })
+                .collect()
         };
-        let mut locations = Vec::new();
-        for member in members {
-            if let Some(naga::Binding::Location { location, .. }) = member.binding {
-                locations.push((member.name.clone().unwrap_or_default(), location));
-            }
-        }
+        let locations = locations_of("VertexIn");
         let names = ["position", "normal", "curvature_per_mm", "uv", "tangent"];
         let expected: Vec<(String, u32)> = GpuVertex::ATTRIBUTES
             .iter()
@@ -438,23 +445,7 @@ mod tests {
             .collect();
         assert_eq!(fields, offsets);
 
-        let (_, ty) = module
-            .types
-            .iter()
-            .find(|(_, ty)| ty.name.as_deref() == Some("VertexTermsIn"))
-            .expect("VertexTermsIn declared");
-        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-            panic!("VertexTermsIn is a struct");
-        };
-        let locations: Vec<(String, u32)> = members
-            .iter()
-            .filter_map(|member| match member.binding {
-                Some(naga::Binding::Location { location, .. }) => {
-                    Some((member.name.clone().unwrap_or_default(), location))
-                }
-                _ => None,
-            })
-            .collect();
+        let locations = locations_of("VertexTermsIn");
         let expected: Vec<(String, u32)> = GpuVertexTerms::LAYOUT
             .fields
             .iter()
