@@ -6,7 +6,7 @@ use std::sync::OnceLock;
 use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::scene::{Projection, Scene, SceneAssets};
-use cdrf_core::{CurvatureOptions, Mesh, mean_curvature_per_mm};
+use cdrf_core::{Curvature, CurvatureOptions, Mesh, curvature_per_mm};
 use cdrf_render::Options;
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
 
@@ -107,20 +107,22 @@ pub fn sphere_points(scene: &Scene) -> Vec<Option<(Vec3, Vec3)>> {
 ///
 /// # Panics
 /// If a part's curvature cannot be estimated.
-pub fn merged(parts: &[(Mesh, Vec3)]) -> (Mesh, Vec<f32>) {
+pub fn merged(parts: &[(Mesh, Vec3)]) -> (Mesh, Curvature) {
     let mut mesh = Mesh {
         positions: Vec::new(),
         normals: Vec::new(),
         uvs: None,
         triangles: Vec::new(),
     };
-    let mut curvature = Vec::new();
+    let mut curvature = Curvature::default();
     for (part, offset) in parts {
         let base = mesh.positions.len() as u32;
-        curvature.extend(
-            mean_curvature_per_mm(part, &CurvatureOptions::new(1.0))
-                .unwrap_or_else(|error| panic!("{error}")),
-        );
+        let part_curvature = curvature_per_mm(part, &CurvatureOptions::new(1.0))
+            .unwrap_or_else(|error| panic!("{error}"));
+        curvature.mean_per_mm.extend(part_curvature.mean_per_mm);
+        curvature
+            .anisotropy_per_mm
+            .extend(part_curvature.anisotropy_per_mm);
         mesh.positions
             .extend(part.positions.iter().map(|p| *p + *offset));
         mesh.normals.extend(&part.normals);

@@ -248,7 +248,7 @@ fn point_and_spot_light_shadows_fall_where_the_rays_say() {
         .iter()
         .map(|&(centre, radius)| (Mesh::icosphere(radius, 5), centre))
         .collect();
-    let (mesh, curvature_per_mm) = merged(&parts);
+    let (mesh, curvature) = merged(&parts);
     let (mut scene, mut assets) = sphere_scene(256);
     if let Projection::Orthographic { half_height } = &mut scene.camera.projection {
         *half_height = 75.0;
@@ -261,7 +261,8 @@ fn point_and_spot_light_shadows_fall_where_the_rays_say() {
     scene.mesh.transform = ModelTransform::default();
     assets.surfaces = MeshSurfaces::single(&mesh);
     assets.mesh = mesh;
-    assets.curvature_per_mm = curvature_per_mm;
+    assets.curvature_per_mm = curvature.mean_per_mm;
+    assets.curvature_anisotropy_per_mm = curvature.anisotropy_per_mm;
     assets.material = Material::Lambert { albedo: [1.0; 3] };
     let (width, height) = (scene.camera.width as i64, scene.camera.height as i64);
     let cases = [

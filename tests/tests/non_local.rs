@@ -123,13 +123,14 @@ fn a_shape_shadowing_another() {
     let (lut, translucency) = wax();
     let small_centre = Vec3::new(-32.0, 10.0, 17.3);
     let big_centre = Vec3::new(12.0, 0.0, 0.0);
-    let (mesh, curvature_per_mm) = merged(&[
+    let (mesh, curvature) = merged(&[
         (Mesh::icosphere(12.0, 5), small_centre),
         (Mesh::icosphere(25.0, 5), big_centre),
     ]);
     let assets = SceneAssets {
         mesh,
-        curvature_per_mm,
+        curvature_per_mm: curvature.mean_per_mm,
+        curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
         material: Material::Measured(lut),
         surfaces: Default::default(),
     };
@@ -201,6 +202,7 @@ fn slab(thickness_mm: f32, material: Material) -> SceneAssets {
     let mesh = Mesh::cuboid(Vec3::new(30.0, 30.0, 0.5 * thickness_mm), 30);
     SceneAssets {
         curvature_per_mm: vec![0.0; mesh.positions.len()],
+        curvature_anisotropy_per_mm: Vec::new(),
         mesh,
         material,
         surfaces: Default::default(),
@@ -392,10 +394,11 @@ fn non_local_terms_do_not_pattern_a_coarse_mesh() {
     for n in &mut torus.normals {
         *n = tilt * *n;
     }
-    let (mesh, curvature_per_mm) = merged(&[(torus, Vec3::ZERO)]);
+    let (mesh, curvature) = merged(&[(torus, Vec3::ZERO)]);
     let assets = SceneAssets {
         mesh,
-        curvature_per_mm,
+        curvature_per_mm: curvature.mean_per_mm,
+        curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
         material: Material::Measured(lut),
         surfaces: Default::default(),
     };
@@ -420,7 +423,7 @@ fn non_local_terms_do_not_pattern_a_coarse_mesh() {
 fn interreflection_matches_the_form_factor_and_vanishes_on_a_sphere() {
     let albedo = 0.8;
     // The wall's front face is z = 0 (y from −30 to 30), the floor's top y = −30 (z from 0 to 60).
-    let (mesh, curvature_per_mm) = merged(&[
+    let (mesh, curvature) = merged(&[
         (
             Mesh::cuboid(Vec3::new(30.0, 30.0, 1.0), 30),
             Vec3::new(0.0, 0.0, -1.0),
@@ -432,7 +435,8 @@ fn interreflection_matches_the_form_factor_and_vanishes_on_a_sphere() {
     ]);
     let assets = SceneAssets {
         mesh,
-        curvature_per_mm,
+        curvature_per_mm: curvature.mean_per_mm,
+        curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
         material: Material::Lambert {
             albedo: [albedo; 3],
         },
@@ -506,10 +510,11 @@ fn interreflection_matches_the_form_factor_and_vanishes_on_a_sphere() {
 
     // A wax sphere: the same image with and without the term.
     let (lut, _) = wax();
-    let (mesh, curvature_per_mm) = merged(&[(Mesh::icosphere(25.0, 5), Vec3::ZERO)]);
+    let (mesh, curvature) = merged(&[(Mesh::icosphere(25.0, 5), Vec3::ZERO)]);
     let assets = SceneAssets {
         mesh,
-        curvature_per_mm,
+        curvature_per_mm: curvature.mean_per_mm,
+        curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
         material: Material::Measured(lut),
         surfaces: Default::default(),
     };
@@ -635,10 +640,11 @@ fn the_subsurface_gather_matches_the_profile_through_a_slab() {
 #[test]
 fn the_subsurface_gather_leaves_a_sphere_as_the_table_renders_it() {
     let (lut, _) = wax();
-    let (mesh, curvature_per_mm) = merged(&[(Mesh::icosphere(25.0, 5), Vec3::ZERO)]);
+    let (mesh, curvature) = merged(&[(Mesh::icosphere(25.0, 5), Vec3::ZERO)]);
     let assets = SceneAssets {
         mesh,
-        curvature_per_mm,
+        curvature_per_mm: curvature.mean_per_mm,
+        curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
         material: Material::Measured(lut),
         surfaces: Default::default(),
     };
@@ -711,10 +717,11 @@ fn the_subsurface_gather_leaves_a_sphere_as_the_table_renders_it() {
 #[test]
 fn the_terms_of_a_light_among_the_draws_have_no_seams() {
     let (lut, _) = wax();
-    let (mesh, curvature_per_mm) = merged(&[(Mesh::torus(30.0, 14.0, 96, 48), Vec3::ZERO)]);
+    let (mesh, curvature) = merged(&[(Mesh::torus(30.0, 14.0, 96, 48), Vec3::ZERO)]);
     let assets = SceneAssets {
         mesh,
-        curvature_per_mm,
+        curvature_per_mm: curvature.mean_per_mm,
+        curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
         material: Material::Measured(lut),
         surfaces: Default::default(),
     };

@@ -41,9 +41,13 @@
 //!    resolution weight: 1 while curvature × mean edge length ≤ 0.15, 0 from 0.3 (coarse meshes,
 //!    where a quadric over the ring no longer describes the surface, keep Rusinkiewicz's estimate).
 //!
-//! Only the mean curvature `H = ½ trace II` is reported. Rotating a tensor between orthonormal
-//! frames leaves its trace unchanged, so step 3 reduces *exactly* to the corner-area-weighted
-//! average of the per-face `½ trace II`: no frames need to be built. Everything runs on the
+//! [`mean_curvature_per_mm`] reports the mean curvature `H = ½ trace II`. Rotating a tensor
+//! between orthonormal frames leaves its trace unchanged, so step 3 reduces *exactly* to the
+//! corner-area-weighted average of the per-face `½ trace II`: no frames need to be built.
+//! [`curvature_per_mm`] also reports the tensor's anisotropy (the curvature along a direction,
+//! [`directional_curvature_per_mm`]): there each face's tensor is projected onto the vertex's
+//! tangent plane (instead of Rusinkiewicz's rotation of the face's frame onto it, which differs
+//! at second order in the angle between the normals). Everything runs on the
 //! welded topology (see [`crate::mesh`]) so UV seams do not cut the surface, in f64 inside each
 //! vertex and face. Faces are fitted in parallel; vertices then *gather* from their incident
 //! faces through a vertex → face adjacency (no scatter, no races; the result does not depend on
@@ -201,6 +205,86 @@ pub fn mean_curvature_per_mm_welded(
     triangles: &[[u32; 3]],
     options: &CurvatureOptions,
 ) -> Result<Vec<f32>, CurvatureError> {
+    Ok(estimate_welded(positions, triangles, options)?.mean_per_mm)
+}
+
+/// A mesh's curvature per vertex: the mean curvature and how it varies with direction.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Curvature {
+    /// Signed mean curvature H, mm⁻¹ (as [`mean_curvature_per_mm`]).
+    pub mean_per_mm: Vec<f32>,
+    /// The anisotropy of each vertex's curvature tensor, mm⁻¹, in model coordinates: a
+    /// tangent vector along the direction of the larger principal curvature κ₁ whose length is
+    /// (κ₁ − κ₂)/2 (zero on a sphere or a plane). With the mean curvature it gives the
+    /// curvature along any direction ([`directional_curvature_per_mm`]); a cylinder of radius r
+    /// has H = 1/(2r) and an anisotropy of length 1/(2r) around it.
+    pub anisotropy_per_mm: Vec<Vec3>,
+}
+
+/// The normal curvature of the surface along the tangent part of `direction`, blended toward the
+/// mean curvature as `direction` turns toward the normal:
+/// `κ = H + 2 (d·a)²/|a| − |a|·(1 − (d·n)²)`, with `a` the anisotropy ([`Curvature`]) and `n` the
+/// unit normal; `d` a unit vector. For a tangent `d` this is the normal curvature
+/// `κ₁ cos² α + κ₂ sin² α` (α from the direction of κ₁); along the normal it is H; in between it
+/// moves smoothly (by sin² of the angle from the normal). Its mean over the directions of the
+/// tangent plane is H.
+///
+/// ```
+/// use cdrf_core::curvature::directional_curvature_per_mm;
+/// use glam::Vec3;
+///
+/// // A cylinder of radius 5 mm along y, at the point whose normal is +x: κ₁ = 1/5 around it
+/// // (along z), κ₂ = 0 along its axis.
+/// let (mean, anisotropy, normal) = (0.1, Vec3::new(0.0, 0.0, 0.1), Vec3::X);
+/// let around = directional_curvature_per_mm(mean, anisotropy, normal, Vec3::Z);
+/// let along = directional_curvature_per_mm(mean, anisotropy, normal, Vec3::Y);
+/// let facing = directional_curvature_per_mm(mean, anisotropy, normal, Vec3::X);
+/// assert!((around - 0.2).abs() < 1e-6 && along.abs() < 1e-6 && (facing - 0.1).abs() < 1e-6);
+/// ```
+pub fn directional_curvature_per_mm(
+    mean_per_mm: f32,
+    anisotropy_per_mm: Vec3,
+    normal: Vec3,
+    direction: Vec3,
+) -> f32 {
+    let length = anisotropy_per_mm.length();
+    if length <= 0.0 {
+        return mean_per_mm;
+    }
+    let along = direction.dot(anisotropy_per_mm);
+    let facing = direction.dot(normal);
+    mean_per_mm + 2.0 * along * along / length - length * (1.0 - facing * facing).max(0.0)
+}
+
+/// The mean curvature and the curvature's anisotropy for every vertex of `mesh` (see
+/// [`Curvature`]), on its welded topology like [`mean_curvature_per_mm`], whose values
+/// `mean_per_mm` are.
+///
+/// The anisotropy is Rusinkiewicz's per-vertex tensor (step 3 of the method), each face's
+/// tensor projected onto the vertex's tangent plane, less its mean; smoothing rounds average it
+/// as they average H.
+///
+/// # Errors
+/// As [`mean_curvature_per_mm`].
+pub fn curvature_per_mm(
+    mesh: &Mesh,
+    options: &CurvatureOptions,
+) -> Result<Curvature, CurvatureError> {
+    check_input(&mesh.positions, &mesh.triangles, options)?;
+    let welded = mesh.weld();
+    let curvature = estimate_welded(&welded.positions, &welded.triangles, options)?;
+    Ok(Curvature {
+        mean_per_mm: welded.to_mesh_vertices(&curvature.mean_per_mm),
+        anisotropy_per_mm: welded.to_mesh_vertices(&curvature.anisotropy_per_mm),
+    })
+}
+
+/// Both estimates on the topology as given (see [`mean_curvature_per_mm_welded`]).
+fn estimate_welded(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    options: &CurvatureOptions,
+) -> Result<Curvature, CurvatureError> {
     check_input(positions, triangles, options)?;
     let adjacency = VertexFaces::new(positions.len(), triangles);
 
@@ -218,67 +302,113 @@ pub fn mean_curvature_per_mm_welded(
         })
         .collect();
 
-    let mut curvature: Vec<f64> = (0..positions.len())
+    let (mut curvature, mut tensors): (Vec<f64>, Vec<DMat3>) = (0..positions.len())
         .into_par_iter()
         .map(|v| {
-            let (mut sum, mut weight) = (0.0, 0.0);
+            let (mut sum, mut weight, mut tensor) = (0.0, 0.0, DMat3::ZERO);
             for &f in adjacency.faces_of(v) {
                 let fit = &fits[f as usize];
                 let corner = corner_of(triangles[f as usize], v);
                 let w = f64::from(fit.corner_areas[corner]);
                 sum += w * fit.mean_curvature;
+                tensor += fit.tensor * w;
                 weight += w;
             }
             // Rusinkiewicz's estimate, blended with the vertex's own height-field fit where
             // the 1-ring is irregular.
             let r = if weight > 0.0 { sum / weight } else { 0.0 };
-            match fitted[v] {
+            let tensor = if weight > 0.0 {
+                tensor * (1.0 / weight)
+            } else {
+                DMat3::ZERO
+            };
+            let mean = match fitted[v] {
                 Some(fit) => {
                     let w = irregular_weight(fit.asymmetry)
                         * resolved_weight(fit.mean_curvature.abs().max(r.abs()) * fit.mean_edge);
                     (1.0 - w) * r + w * fit.mean_curvature
                 }
                 None => r,
-            }
+            };
+            (mean, tensor)
         })
-        .collect();
+        .unzip();
 
     for _ in 0..options.smoothing_iterations {
-        curvature = (0..positions.len())
+        (curvature, tensors) = (0..positions.len())
             .into_par_iter()
             .map(|v| {
-                let (mut sum, mut weight) = (0.0, 0.0);
+                let (mut sum, mut weight, mut tensor) = (0.0, 0.0, DMat3::ZERO);
                 for &f in adjacency.faces_of(v) {
                     let t = triangles[f as usize];
                     for (corner, &w) in fits[f as usize].corner_areas.iter().enumerate() {
                         let w = f64::from(w);
                         sum += w * curvature[t[corner] as usize];
+                        tensor += tensors[t[corner] as usize] * w;
                         weight += w;
                     }
                 }
                 if weight > 0.0 {
-                    sum / weight
+                    (sum / weight, tensor * (1.0 / weight))
                 } else {
-                    curvature[v]
+                    (curvature[v], tensors[v])
                 }
             })
-            .collect();
+            .unzip();
     }
 
     let per_mm = 1.0 / f64::from(options.mm_per_unit);
-    let curvature: Vec<f32> = curvature
+    let mean_per_mm: Vec<f32> = curvature
         .into_par_iter()
         .map(|k| (k * per_mm) as f32)
         .collect();
-    if let Some(vertex) = curvature.par_iter().position_first(|k| !k.is_finite()) {
+    if let Some(vertex) = mean_per_mm.par_iter().position_first(|k| !k.is_finite()) {
         return Err(CurvatureError::NonFiniteCurvature {
             vertex,
             position: positions[vertex],
-            value: curvature[vertex],
+            value: mean_per_mm[vertex],
             mm_per_unit: options.mm_per_unit,
         });
     }
-    Ok(curvature)
+    let anisotropy_per_mm = tensors
+        .into_par_iter()
+        .zip(normals)
+        .map(|(tensor, normal)| {
+            let a = anisotropy(tensor, normal.as_dvec3()) * per_mm;
+            if a.is_finite() {
+                a.as_vec3()
+            } else {
+                Vec3::ZERO
+            }
+        })
+        .collect();
+    Ok(Curvature {
+        mean_per_mm,
+        anisotropy_per_mm,
+    })
+}
+
+/// The anisotropy vector (see [`Curvature`]) of a vertex's averaged tensor, projected onto the
+/// tangent plane of `normal` (zero for a zero normal).
+fn anisotropy(tensor: DMat3, normal: DVec3) -> DVec3 {
+    if normal == DVec3::ZERO {
+        return DVec3::ZERO;
+    }
+    let helper = if normal.z.abs() < 0.9 {
+        DVec3::Z
+    } else {
+        DVec3::X
+    };
+    let t1 = helper.cross(normal).normalize();
+    let t2 = normal.cross(t1);
+    let (a11, a12, a22) = (
+        t1.dot(tensor * t1),
+        0.5 * (t1.dot(tensor * t2) + t2.dot(tensor * t1)),
+        t2.dot(tensor * t2),
+    );
+    let half_difference = (0.25 * (a11 - a22).powi(2) + a12 * a12).sqrt();
+    let angle = 0.5 * (2.0 * a12).atan2(a11 - a22);
+    (t1 * angle.cos() + t2 * angle.sin()) * half_difference
 }
 
 fn check_input(
@@ -554,6 +684,9 @@ fn solve_cholesky_5(a: &[[f64; 5]; 5], b: &[f64; 5]) -> Option<[f64; 5]> {
 #[derive(Clone, Copy, Debug)]
 struct FaceFit {
     mean_curvature: f64,
+    /// The face's second fundamental form as a 3D tensor in its plane,
+    /// `II_tt·t tᵀ + II_tb·(t bᵀ + b tᵀ) + II_bb·b bᵀ`, model units⁻¹.
+    tensor: DMat3,
     corner_areas: [f32; 3],
 }
 
@@ -562,6 +695,7 @@ struct FaceFit {
 fn fit_face(p: [DVec3; 3], n: [DVec3; 3]) -> FaceFit {
     const NONE: FaceFit = FaceFit {
         mean_curvature: 0.0,
+        tensor: DMat3::ZERO,
         corner_areas: [0.0; 3],
     };
     // Edge i is opposite vertex i: e_i = p_{i+2} − p_{i+1}.
@@ -599,6 +733,8 @@ fn fit_face(p: [DVec3; 3], n: [DVec3; 3]) -> FaceFit {
     }
     let ii = normal_matrix.inverse() * rhs;
     let mean_curvature = 0.5 * (ii.x + ii.z);
+    let outer = |a: DVec3, c: DVec3| DMat3::from_cols(a * c.x, a * c.y, a * c.z);
+    let tensor = outer(t, t) * ii.x + (outer(t, b) + outer(b, t)) * ii.y + outer(b, b) * ii.z;
 
     // Mixed Voronoi corner areas.
     let area = 0.5 * double_area;
@@ -622,6 +758,7 @@ fn fit_face(p: [DVec3; 3], n: [DVec3; 3]) -> FaceFit {
     }
     FaceFit {
         mean_curvature,
+        tensor,
         corner_areas: corner_areas.map(|a| a as f32),
     }
 }

@@ -49,7 +49,10 @@ pub mod translucency;
 /// The math types of the public API (positions, normals, matrices).
 pub use glam;
 
-pub use curvature::{CurvatureError, CurvatureOptions, mean_curvature_per_mm};
+pub use curvature::{
+    Curvature, CurvatureError, CurvatureOptions, curvature_per_mm, directional_curvature_per_mm,
+    mean_curvature_per_mm,
+};
 pub use gaussian_file::{GaussianParameters, read_gaussian, write_gaussian};
 pub use image_file::RgbaImage;
 pub use lut::{Cdrf, CdrfLut, CurvatureAxis, Filter, ViewCorrection};

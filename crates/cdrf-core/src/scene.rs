@@ -78,7 +78,7 @@ use glam::{Mat4, Vec3};
 use serde::Deserialize;
 use thiserror::Error;
 
-use crate::curvature::{CurvatureError, CurvatureOptions, mean_curvature_per_mm};
+use crate::curvature::{CurvatureError, CurvatureOptions, curvature_per_mm};
 use crate::environment::{Environment, EnvironmentDesc, EnvironmentError, EnvironmentSource};
 use crate::gaussian::GaussianCdrf;
 use crate::gaussian_file::{GaussianFileError, read_gaussian};
@@ -286,6 +286,9 @@ pub struct SceneAssets {
     /// Per-vertex mean curvature, mm⁻¹, of the mesh at `mm_per_unit` (before the model
     /// transform's scale).
     pub curvature_per_mm: Vec<f32>,
+    /// Per-vertex anisotropy of the curvature, mm⁻¹, in the mesh's own frame (see
+    /// [`crate::curvature::Curvature`]); empty: none (the mean curvature in every direction).
+    pub curvature_anisotropy_per_mm: Vec<Vec3>,
     /// The shading model with its data.
     pub material: Material,
     /// The mesh's glTF materials, primitives and tangents, to draw it textured (empty
@@ -946,7 +949,7 @@ impl Scene {
         let (repaired, surfaces) = Mesh::load_with_surfaces(&self.mesh.path)
             .map_err(|error| SceneError::Mesh { error })?;
         let mesh = repaired.mesh;
-        let curvature_per_mm = mean_curvature_per_mm(
+        let curvature = curvature_per_mm(
             &mesh,
             &CurvatureOptions::new(self.mesh.mm_per_unit)
                 .with_smoothing_iterations(self.mesh.curvature_smoothing),
@@ -955,6 +958,7 @@ impl Scene {
             mesh: self.mesh.path.clone(),
             error,
         })?;
+        let curvature_per_mm = curvature.mean_per_mm;
         let material = match &self.shading {
             ShadingSpec::Measured { lut } => {
                 Material::Measured(read_lut(lut).map_err(|error| SceneError::Lut { error })?)
@@ -983,6 +987,7 @@ impl Scene {
         Ok(SceneAssets {
             mesh,
             curvature_per_mm,
+            curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
             material,
             surfaces,
         })

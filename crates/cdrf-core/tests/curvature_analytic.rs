@@ -348,3 +348,56 @@ fn invalid_input_is_an_error() {
         "{error}"
     );
 }
+
+/// The curvature along a direction on a torus (R = 3, a = 1, axis z), against its principal
+/// curvatures: 1/a around the tube, cos v / (R + a cos v) along the ring; and none on a sphere.
+#[test]
+fn directional_curvature_follows_the_principal_curvatures() {
+    use cdrf_core::curvature::{curvature_per_mm, directional_curvature_per_mm};
+    let (major, minor) = (3.0f64, 1.0f64);
+    let mesh = Mesh::torus(major as f32, minor as f32, 128, 64);
+    let curvature = curvature_per_mm(&mesh, &CurvatureOptions::default()).unwrap();
+    assert_eq!(curvature.mean_per_mm, self::curvature(&mesh), "the same H");
+    let (mut around_error, mut along_error, mut diagonal_error) = (0.0f64, 0.0f64, 0.0f64);
+    for (v, &p) in mesh.positions.iter().enumerate() {
+        let q = p.as_dvec3();
+        let rho = (q.x * q.x + q.y * q.y).sqrt();
+        let angle = q.z.atan2(rho - major);
+        let ring = glam::DVec3::new(-q.y, q.x, 0.0) / rho;
+        let centre = glam::DVec3::new(q.x, q.y, 0.0) * (major / rho);
+        let normal = (q - centre).normalize();
+        let around = normal.cross(ring);
+        let k_ring = angle.cos() / (major + minor * angle.cos());
+        let k_around = 1.0 / minor;
+        let at = |d: glam::DVec3| {
+            f64::from(directional_curvature_per_mm(
+                curvature.mean_per_mm[v],
+                curvature.anisotropy_per_mm[v],
+                normal.as_vec3(),
+                d.normalize().as_vec3(),
+            ))
+        };
+        around_error = around_error.max((at(around) - k_around).abs() / k_around);
+        along_error = along_error.max((at(ring) - k_ring).abs() / k_around);
+        // Halfway between the principal directions: the mean of the two.
+        let halfway = 0.5 * (k_ring + k_around);
+        diagonal_error = diagonal_error.max((at(ring + around) - halfway).abs() / k_around);
+    }
+    println!(
+        "torus 128 × 64: largest error around the tube {:.3} %, along the ring {:.3} %, \
+         diagonal {:.3} % (of 1/a)",
+        100.0 * around_error,
+        100.0 * along_error,
+        100.0 * diagonal_error
+    );
+    assert!(around_error < 0.01 && along_error < 0.01 && diagonal_error < 0.01);
+
+    let sphere = Mesh::icosphere(2.0, 3);
+    let on_sphere = curvature_per_mm(&sphere, &CurvatureOptions::default()).unwrap();
+    let largest = on_sphere
+        .anisotropy_per_mm
+        .iter()
+        .fold(0.0f32, |m, a| m.max(a.length()));
+    println!("icosphere: largest anisotropy {largest:.2e} of H = 0.5");
+    assert!(largest < 2e-3 * 0.5, "{largest}");
+}

@@ -24,7 +24,7 @@ use cdrf_core::glam::Vec3;
 use cdrf_core::scene::{
     Camera, Material, MeshSpec, ModelTransform, Projection, Scene, SceneAssets, ShadingSpec,
 };
-use cdrf_core::{CurvatureOptions, Mesh, mean_curvature_per_mm, read_lut};
+use cdrf_core::{CurvatureOptions, Mesh, curvature_per_mm, read_lut};
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
 use cdrf_render::{DirectionalLight, NonLocal, PointLight, SpecularLayer, SpotLight};
 use cdrf_render::{GaussianEvaluation, LutFiltering, Options};
@@ -206,7 +206,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         meshes.push(("torus 1M", Mesh::torus(30.0, 14.0, 1024, 512), 1.0));
     }
     for (label, mesh, mm_per_unit) in meshes {
-        let curvature_per_mm = mean_curvature_per_mm(&mesh, &CurvatureOptions::new(mm_per_unit))?;
+        let curvature = curvature_per_mm(&mesh, &CurvatureOptions::new(mm_per_unit))?;
         let (low, high) = bounds(&mesh);
         let centre = 0.5 * (low + high);
         let half_height = 0.55 * (high - low).max_element();
@@ -247,7 +247,8 @@ fn main() -> Result<(), Box<dyn Error>> {
         let mut times = vec![Vec::new(); variants.len()];
         let mut assets = SceneAssets {
             mesh,
-            curvature_per_mm,
+            curvature_per_mm: curvature.mean_per_mm,
+            curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
             material: Material::Lambert { albedo: [1.0; 3] },
             surfaces: Default::default(),
         };

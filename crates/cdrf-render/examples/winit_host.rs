@@ -63,7 +63,7 @@ use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::gaussian_file::read_gaussian;
 use cdrf_core::glam::Vec3;
 use cdrf_core::glam::camera::rh::{proj::directx, view};
-use cdrf_core::{CdrfLut, CurvatureOptions, Mesh, ViewCorrection, mean_curvature_per_mm, read_lut};
+use cdrf_core::{CdrfLut, CurvatureOptions, Mesh, ViewCorrection, curvature_per_mm, read_lut};
 use cdrf_render::{
     DirectionalLight, ENVIRONMENT_SH_ORDER, NonLocal, PointLight, ShCoefficients, SpecularLayer,
     SpotLight,
@@ -221,6 +221,7 @@ struct SceneData {
     name: String,
     mesh: Mesh,
     curvature_per_mm: Vec<f32>,
+    curvature_anisotropy_per_mm: Vec<Vec3>,
     measured: CdrfLut,
     gaussian: GaussianCdrf,
     view_correction: ViewCorrection,
@@ -238,9 +239,9 @@ impl SceneData {
             println!("{}: repaired: {}", path.display(), loaded.report);
         }
         let mesh = loaded.mesh;
-        let curvature_per_mm =
-            mean_curvature_per_mm(&mesh, &CurvatureOptions::new(config.mm_per_unit))
-                .map_err(|e| Failure::caused(format!("{}: curvature", path.display()), &e))?;
+        let curvature = curvature_per_mm(&mesh, &CurvatureOptions::new(config.mm_per_unit))
+            .map_err(|e| Failure::caused(format!("{}: curvature", path.display()), &e))?;
+        let curvature_per_mm = curvature.mean_per_mm;
 
         let measured = read_lut(MEASURED_LUT_PATH)
             .map_err(|e| Failure::caused("reading the measured CDRF", &e))?;
@@ -271,6 +272,7 @@ impl SceneData {
             name,
             mesh,
             curvature_per_mm,
+            curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
             measured,
             gaussian,
             view_correction,
@@ -507,7 +509,8 @@ impl Gpu {
         let mesh = renderer
             .create_mesh(
                 &device,
-                &MeshDesc::from_mesh(&scene.mesh, &scene.curvature_per_mm),
+                &MeshDesc::from_mesh(&scene.mesh, &scene.curvature_per_mm)
+                    .with_curvature_anisotropy(&scene.curvature_anisotropy_per_mm),
             )
             .map_err(|e| Failure::caused(format!("uploading {}", scene.name), &e))?;
         let gaussian_desc = MaterialDesc::Gaussian {

@@ -283,6 +283,8 @@ struct VertexIn {
     @location(3) uv: vec2<f32>,
     // xyz along +u, w the bitangent's sign (zero: no tangents).
     @location(4) tangent: vec4<f32>,
+    // The curvature's anisotropy (cdrf-core's curvature::Curvature), model frame, mm⁻¹.
+    @location(14) curvature_anisotropy_per_mm: vec3<f32>,
 }
 
 // A vertex's non-local terms (see vs_main_terms), written by cs_vertex_terms once per vertex
@@ -321,14 +323,16 @@ struct VertexOut {
     @location(1) @interpolate(perspective, centroid) world_normal: vec3<f32>,
     @location(2) @interpolate(perspective, centroid) curvature_per_mm: f32,
     // Non-local terms of the shadowed lights 0–3, evaluated per vertex (see vs_main):
-    // visibility (xyz) and transmission (xyz, π·L/E) each.
-    @location(3) @interpolate(perspective, centroid) visibility_0: vec3<f32>,
+    // visibility (xyz) and transmission (xyz, π·L/E) each; in visibility_i.w the curvature
+    // along the direction to light i (light_curvature_per_mm), for lights 0–3 whether
+    // shadowed or not.
+    @location(3) @interpolate(perspective, centroid) visibility_0: vec4<f32>,
     @location(4) @interpolate(perspective, centroid) transmission_0: vec3<f32>,
-    @location(5) @interpolate(perspective, centroid) visibility_1: vec3<f32>,
+    @location(5) @interpolate(perspective, centroid) visibility_1: vec4<f32>,
     @location(6) @interpolate(perspective, centroid) transmission_1: vec3<f32>,
-    @location(7) @interpolate(perspective, centroid) visibility_2: vec3<f32>,
+    @location(7) @interpolate(perspective, centroid) visibility_2: vec4<f32>,
     @location(8) @interpolate(perspective, centroid) transmission_2: vec3<f32>,
-    @location(9) @interpolate(perspective, centroid) visibility_3: vec3<f32>,
+    @location(9) @interpolate(perspective, centroid) visibility_3: vec4<f32>,
     @location(10) @interpolate(perspective, centroid) transmission_3: vec3<f32>,
     // Radiance evaluated per vertex (before exposure): the inter-reflected light of all
     // shadowed lights and the environment light, both smooth over the surface.
@@ -353,13 +357,13 @@ fn vs_main(vertex: VertexIn) -> VertexOut {
 @vertex
 fn vs_main_terms(vertex: VertexIn, terms: VertexTermsIn) -> VertexOut {
     var out = vertex_out(vertex);
-    out.visibility_0 = terms.visibility_0.xyz;
+    out.visibility_0 = vec4<f32>(terms.visibility_0.xyz, out.visibility_0.w);
     out.transmission_0 = terms.transmission_0.xyz;
-    out.visibility_1 = terms.visibility_1.xyz;
+    out.visibility_1 = vec4<f32>(terms.visibility_1.xyz, out.visibility_1.w);
     out.transmission_1 = terms.transmission_1.xyz;
-    out.visibility_2 = terms.visibility_2.xyz;
+    out.visibility_2 = vec4<f32>(terms.visibility_2.xyz, out.visibility_2.w);
     out.transmission_2 = terms.transmission_2.xyz;
-    out.visibility_3 = terms.visibility_3.xyz;
+    out.visibility_3 = vec4<f32>(terms.visibility_3.xyz, out.visibility_3.w);
     out.transmission_3 = terms.transmission_3.xyz;
     out.vertex_radiance += terms.radiance.xyz;
     return out;
@@ -379,10 +383,16 @@ fn vertex_out(vertex: VertexIn) -> VertexOut {
         (draw.world_from_model * vec4<f32>(vertex.tangent.xyz, 0.0)).xyz,
         vertex.tangent.w,
     );
-    out.visibility_0 = vec3<f32>(1.0);
-    out.visibility_1 = vec3<f32>(1.0);
-    out.visibility_2 = vec3<f32>(1.0);
-    out.visibility_3 = vec3<f32>(1.0);
+    let curvatures = light_curvatures_per_mm(
+        out.world_position,
+        normalize(out.world_normal),
+        out.curvature_per_mm,
+        world_anisotropy_of(vertex.curvature_anisotropy_per_mm),
+    );
+    out.visibility_0 = vec4<f32>(1.0, 1.0, 1.0, curvatures.x);
+    out.visibility_1 = vec4<f32>(1.0, 1.0, 1.0, curvatures.y);
+    out.visibility_2 = vec4<f32>(1.0, 1.0, 1.0, curvatures.z);
+    out.visibility_3 = vec4<f32>(1.0, 1.0, 1.0, curvatures.w);
     out.transmission_0 = vec3<f32>(0.0);
     out.transmission_1 = vec3<f32>(0.0);
     out.transmission_2 = vec3<f32>(0.0);
@@ -406,6 +416,76 @@ fn vertex_out(vertex: VertexIn) -> VertexOut {
 // A model-space normal in world space (not normalised).
 fn world_normal_of(normal: vec3<f32>) -> vec3<f32> {
     return (draw.normal_from_model * vec4<f32>(normal, 0.0)).xyz;
+}
+
+// A vertex's curvature anisotropy (mm⁻¹, model frame) in world space: turned with the model
+// transform, rescaled as the curvature is.
+fn world_anisotropy_of(anisotropy: vec3<f32>) -> vec3<f32> {
+    let turned = (draw.world_from_model * vec4<f32>(anisotropy, 0.0)).xyz;
+    let length_turned = length(turned);
+    if length_turned <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return turned * (length(anisotropy) * draw.curvature_scale / length_turned);
+}
+
+// The curvature along a direction (cdrf-core's curvature::directional_curvature_per_mm):
+// H + 2 (d·a)²/|a| − |a|·(1 − (d·n)²), the normal curvature along d's tangent part, moving to
+// H as d turns to the normal.
+fn directional_curvature(
+    mean_per_mm: f32,
+    anisotropy: vec3<f32>,
+    normal: vec3<f32>,
+    direction: vec3<f32>,
+) -> f32 {
+    let length_a = length(anisotropy);
+    if length_a <= 0.0 {
+        return mean_per_mm;
+    }
+    let along = dot(direction, anisotropy);
+    let facing = dot(direction, normal);
+    return mean_per_mm + 2.0 * along * along / length_a
+        - length_a * max(1.0 - facing * facing, 0.0);
+}
+
+// The curvature each of lights 0–3 sees at a vertex: along the direction to the light, across
+// which its angle θ changes (a tube lit across its axis falls off like a sphere of the tube's
+// radius, lit along it like a flat strip), where the table is read for that light. Lights from
+// 4 on use the mean curvature.
+fn light_curvatures_per_mm(
+    world_position: vec3<f32>,
+    normal: vec3<f32>,
+    mean_per_mm: f32,
+    anisotropy: vec3<f32>,
+) -> vec4<f32> {
+    var curvatures = vec4<f32>(mean_per_mm);
+    let count = min(frame.light_count, 4u);
+    for (var i = 0u; i < count; i++) {
+        let to_light = light_incidence(frame.lights[i], world_position).to_light;
+        curvatures[i] = directional_curvature(mean_per_mm, anisotropy, normal, to_light);
+    }
+    return curvatures;
+}
+
+// The curvature light `index` sees at a fragment (light_curvatures_per_mm, interpolated).
+fn light_curvature_per_mm(in: VertexOut, index: u32) -> f32 {
+    switch index {
+        case 0u: {
+            return in.visibility_0.w;
+        }
+        case 1u: {
+            return in.visibility_1.w;
+        }
+        case 2u: {
+            return in.visibility_2.w;
+        }
+        case 3u: {
+            return in.visibility_3.w;
+        }
+        default: {
+            return in.curvature_per_mm;
+        }
+    }
 }
 
 // The vertex terms pass: the non-local terms of every vertex of the draw's mesh, once. A 2D
@@ -435,6 +515,16 @@ fn cs_vertex_terms(
     let world_position = world.xyz / world.w;
     let normal = normalize(world_normal_of(model_normal));
     let curvature_per_mm = terms_mesh_vertices[base + VERTEX_CURVATURE] * draw.curvature_scale;
+    let curvatures = light_curvatures_per_mm(
+        world_position,
+        normal,
+        curvature_per_mm,
+        world_anisotropy_of(vec3<f32>(
+            terms_mesh_vertices[base + VERTEX_ANISOTROPY],
+            terms_mesh_vertices[base + VERTEX_ANISOTROPY + 1u],
+            terms_mesh_vertices[base + VERTEX_ANISOTROPY + 2u],
+        )),
+    );
 
     var terms: VertexTerms;
     terms.visibility_0 = vec4<f32>(1.0);
@@ -451,22 +541,22 @@ fn cs_vertex_terms(
         && MODEL != MODEL_CURVATURE {
         let count = min(shadows.light_count, frame.light_count);
         if count > 0u {
-            let light = vertex_non_local(0u, world_position, normal, curvature_per_mm);
+            let light = vertex_non_local(0u, world_position, normal, curvatures.x);
             terms.visibility_0 = vec4<f32>(light.visibility, 1.0);
             terms.transmission_0 = vec4<f32>(light.transmission, 0.0);
         }
         if count > 1u {
-            let light = vertex_non_local(1u, world_position, normal, curvature_per_mm);
+            let light = vertex_non_local(1u, world_position, normal, curvatures.y);
             terms.visibility_1 = vec4<f32>(light.visibility, 1.0);
             terms.transmission_1 = vec4<f32>(light.transmission, 0.0);
         }
         if count > 2u {
-            let light = vertex_non_local(2u, world_position, normal, curvature_per_mm);
+            let light = vertex_non_local(2u, world_position, normal, curvatures.z);
             terms.visibility_2 = vec4<f32>(light.visibility, 1.0);
             terms.transmission_2 = vec4<f32>(light.transmission, 0.0);
         }
         if count > 3u {
-            let light = vertex_non_local(3u, world_position, normal, curvature_per_mm);
+            let light = vertex_non_local(3u, world_position, normal, curvatures.w);
             terms.visibility_3 = vec4<f32>(light.visibility, 1.0);
             terms.transmission_3 = vec4<f32>(light.transmission, 0.0);
         }
@@ -505,19 +595,19 @@ fn vertex_terms(in: VertexOut, index: u32) -> NonLocalTerms {
     var terms: NonLocalTerms;
     switch index {
         case 0u: {
-            terms.visibility = in.visibility_0;
+            terms.visibility = in.visibility_0.xyz;
             terms.transmission = in.transmission_0;
         }
         case 1u: {
-            terms.visibility = in.visibility_1;
+            terms.visibility = in.visibility_1.xyz;
             terms.transmission = in.transmission_1;
         }
         case 2u: {
-            terms.visibility = in.visibility_2;
+            terms.visibility = in.visibility_2.xyz;
             terms.transmission = in.transmission_2;
         }
         default: {
-            terms.visibility = in.visibility_3;
+            terms.visibility = in.visibility_3.xyz;
             terms.transmission = in.transmission_3;
         }
     }
@@ -1150,7 +1240,8 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
             let incidence = light_incidence(frame.lights[i], in.world_position);
             let cos_theta = dot(normal, incidence.to_light);
             let theta = angle(cos_theta);
-            var f = local_value(in.curvature_per_mm, cos_theta, theta);
+            let curvature_per_mm = light_curvature_per_mm(in, i);
+            var f = local_value(curvature_per_mm, cos_theta, theta);
             var visibility = vec3<f32>(1.0);
             // The light through material the table does not see: T(d, μ) in π·L/E (times the
             // irradiance here), or the gather's G (times the light's irradiance or intensity:
@@ -1160,12 +1251,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
             if (SHADOWS || TRANSMISSION || SUBSURFACE) && i < shadows.light_count {
                 var terms: NonLocalTerms;
                 if MODEL == MODEL_LAMBERT {
-                    terms = non_local_terms(
-                        i,
-                        in.world_position,
-                        normal,
-                        in.curvature_per_mm,
-                    );
+                    terms = non_local_terms(i, in.world_position, normal, curvature_per_mm);
                 } else {
                     terms = vertex_terms(in, i);
                 }
@@ -1173,11 +1259,11 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                     through_scale = frame.lights[i].irradiance_or_intensity;
                     // The far field the table holds through the osculating sphere: the gather
                     // brings it from the surface that is there.
-                    f -= subsurface_sphere_value(in.curvature_per_mm, theta);
+                    f -= subsurface_sphere_value(curvature_per_mm, theta);
                     if SHADOWS {
                         // Where the point is in shadow, the gathered light is what the table's
                         // shadow side is made of: scaled as the sphere's is.
-                        let gain = subsurface_gain_value(in.curvature_per_mm, theta);
+                        let gain = subsurface_gain_value(curvature_per_mm, theta);
                         let v = terms.visibility;
                         terms.transmission *= v + (vec3<f32>(1.0) - v) * gain;
                     }

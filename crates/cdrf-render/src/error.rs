@@ -42,10 +42,10 @@ pub enum MeshUploadError {
         /// Positions given.
         vertices: usize,
     },
-    /// A UV or tangent is NaN or infinite.
+    /// A UV, tangent or curvature anisotropy is NaN or infinite.
     #[error("a {what} is not finite")]
     NonFinite {
-        /// `"UV"` or `"tangent"`.
+        /// `"UV"`, `"tangent"` or `"curvature anisotropy"`.
         what: &'static str,
     },
     /// A curvature value is NaN or infinite.

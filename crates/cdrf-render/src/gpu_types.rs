@@ -159,7 +159,7 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One vertex of a mesh (the shading shader's `VertexIn` locations 0–4).
+    /// One vertex of a mesh (the shading shader's `VertexIn` locations 0–4 and 14).
     GpuVertex as "VertexIn" {
         position: Vec3,
         normal: Vec3,
@@ -167,12 +167,13 @@ gpu_struct! {
         uv: Vec2,
         // ([f32; 4], not Vec4: glam's Vec4 is 16-byte aligned, which would pad the vertex.)
         tangent: [f32; 4],
+        curvature_anisotropy_per_mm: Vec3,
     }
 }
 
 impl GpuVertex {
     /// The vertex buffer's attributes, from the struct's offsets.
-    pub(crate) const ATTRIBUTES: [wgpu::VertexAttribute; 5] = [
+    pub(crate) const ATTRIBUTES: [wgpu::VertexAttribute; 6] = [
         wgpu::VertexAttribute {
             format: wgpu::VertexFormat::Float32x3,
             offset: std::mem::offset_of!(GpuVertex, position) as u64,
@@ -197,6 +198,11 @@ impl GpuVertex {
             format: wgpu::VertexFormat::Float32x4,
             offset: std::mem::offset_of!(GpuVertex, tangent) as u64,
             shader_location: 4,
+        },
+        wgpu::VertexAttribute {
+            format: wgpu::VertexFormat::Float32x3,
+            offset: std::mem::offset_of!(GpuVertex, curvature_anisotropy_per_mm) as u64,
+            shader_location: 14,
         },
     ];
 
@@ -431,7 +437,14 @@ mod tests {
                 .collect()
         };
         let locations = locations_of("VertexIn");
-        let names = ["position", "normal", "curvature_per_mm", "uv", "tangent"];
+        let names = [
+            "position",
+            "normal",
+            "curvature_per_mm",
+            "uv",
+            "tangent",
+            "curvature_anisotropy_per_mm",
+        ];
         let expected: Vec<(String, u32)> = GpuVertex::ATTRIBUTES
             .iter()
             .zip(names)

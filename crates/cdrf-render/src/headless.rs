@@ -404,6 +404,7 @@ impl<'a> SceneRenderer<'a> {
             .create_mesh(
                 &device.device,
                 &MeshDesc::from_mesh(&assets.mesh, &assets.curvature_per_mm)
+                    .with_curvature_anisotropy(&assets.curvature_anisotropy_per_mm)
                     .with_tangents(assets.surfaces.tangents.as_deref()),
             )
             .map_err(|error| HeadlessError::Mesh {

@@ -25,6 +25,11 @@ pub struct MeshDesc<'a> {
     /// `cdrf_core::mean_curvature_per_mm` with the mesh's mm-per-unit). A draw's model
     /// transform rescales it: an object drawn twice as large has half the curvature.
     pub curvature_per_mm: &'a [f32],
+    /// The curvature's anisotropy per vertex in mm⁻¹, model frame
+    /// ([`cdrf_core::Curvature::anisotropy_per_mm`]): the table is then read at the curvature
+    /// along each light's direction (for the first four lights). `None`: the mean curvature in
+    /// every direction.
+    pub curvature_anisotropy_per_mm: Option<&'a [Vec3]>,
     /// Triangles: three indices into the vertices each, counter-clockwise seen from outside.
     pub indices: &'a [u32],
     /// Texture coordinates, one per position (glTF's `TEXCOORD_0`: `v` down the image); `None`:
@@ -43,9 +48,20 @@ impl<'a> MeshDesc<'a> {
             positions: &mesh.positions,
             normals: &mesh.normals,
             curvature_per_mm,
+            curvature_anisotropy_per_mm: None,
             indices: mesh.triangles.as_flattened(),
             uvs: mesh.uvs.as_deref(),
             tangents: None,
+        }
+    }
+
+    /// With the curvature's anisotropy (e.g. [`cdrf_core::Curvature::anisotropy_per_mm`]; an
+    /// empty slice: none).
+    pub fn with_curvature_anisotropy(self, anisotropy_per_mm: &'a [Vec3]) -> Self {
+        Self {
+            curvature_anisotropy_per_mm: (!anisotropy_per_mm.is_empty())
+                .then_some(anisotropy_per_mm),
+            ..self
         }
     }
 
@@ -67,6 +83,10 @@ impl<'a> MeshDesc<'a> {
         for (what, found) in [
             ("normals", Some(self.normals.len())),
             ("curvature values", Some(self.curvature_per_mm.len())),
+            (
+                "curvature anisotropies",
+                self.curvature_anisotropy_per_mm.map(<[_]>::len),
+            ),
             ("UVs", self.uvs.map(<[_]>::len)),
             ("tangents", self.tangents.map(<[_]>::len)),
         ] {
@@ -98,6 +118,14 @@ impl<'a> MeshDesc<'a> {
             .find(|(_, k)| !k.is_finite())
         {
             return Err(MeshUploadError::NonFiniteCurvature { vertex, value });
+        }
+        if self
+            .curvature_anisotropy_per_mm
+            .is_some_and(|a| a.iter().any(|a| !a.is_finite()))
+        {
+            return Err(MeshUploadError::NonFinite {
+                what: "curvature anisotropy",
+            });
         }
         let uvs_finite = self
             .uvs
@@ -135,6 +163,9 @@ impl GpuMesh {
                 position: desc.positions[i],
                 normal: desc.normals[i],
                 curvature_per_mm: desc.curvature_per_mm[i],
+                curvature_anisotropy_per_mm: desc
+                    .curvature_anisotropy_per_mm
+                    .map_or(Vec3::ZERO, |a| a[i]),
                 uv: desc.uvs.map_or(Vec2::ZERO, |uvs| uvs[i]),
                 tangent: desc
                     .tangents

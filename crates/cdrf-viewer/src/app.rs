@@ -447,6 +447,7 @@ impl ViewerApp {
                 })
                 .collect::<Result<Vec<_>, _>>()?;
             let desc = MeshDesc::from_mesh(&mesh.mesh, &mesh.curvature_per_unit)
+                .with_curvature_anisotropy(&mesh.curvature_anisotropy_per_unit)
                 .with_tangents(mesh.surfaces.tangents.as_deref());
             let id = gpu
                 .renderer

@@ -14,7 +14,7 @@ use cdrf_core::mesh::MeshSurfaces;
 use cdrf_core::scene::{Scene, SceneError};
 use cdrf_core::{
     CdrfLut, CurvatureError, CurvatureOptions, GaussianParameters, LoadError, Mesh, ViewCorrection,
-    mean_curvature_per_mm, read_gaussian, read_lut,
+    curvature_per_mm, read_gaussian, read_lut,
 };
 use thiserror::Error;
 
@@ -86,6 +86,9 @@ pub struct LoadedMesh {
     pub mesh: Mesh,
     /// Signed mean curvature per vertex, per model unit (divide by mm per unit for mm⁻¹).
     pub curvature_per_unit: Vec<f32>,
+    /// The curvature's anisotropy per vertex, per model unit (cdrf-core's
+    /// `Curvature::anisotropy_per_mm` at 1 mm per unit).
+    pub curvature_anisotropy_per_unit: Vec<Vec3>,
     /// Centre of the bounding box, model units.
     pub center: Vec3,
     /// Radius of the bounding sphere around `center`, model units.
@@ -115,11 +118,12 @@ impl LoadedMesh {
     /// # Errors
     /// [`AssetError::Curvature`].
     pub fn new(path: &Path, mesh: Mesh) -> Result<Self, AssetError> {
-        let curvature_per_unit = mean_curvature_per_mm(&mesh, &CurvatureOptions::new(1.0))
-            .map_err(|error| AssetError::Curvature {
+        let curvature = curvature_per_mm(&mesh, &CurvatureOptions::new(1.0)).map_err(|error| {
+            AssetError::Curvature {
                 path: path.to_owned(),
                 error,
-            })?;
+            }
+        })?;
         let (min, max) = mesh.positions.iter().fold(
             (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
             |(min, max), &p| (min.min(p), max.max(p)),
@@ -132,7 +136,8 @@ impl LoadedMesh {
             .fold(0.0f32, f32::max);
         Ok(Self {
             path: path.to_owned(),
-            curvature_per_unit,
+            curvature_per_unit: curvature.mean_per_mm,
+            curvature_anisotropy_per_unit: curvature.anisotropy_per_mm,
             center,
             radius,
             extent: max - min,
