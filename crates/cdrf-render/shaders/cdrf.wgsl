@@ -515,16 +515,9 @@ fn cs_vertex_terms(
     let world_position = world.xyz / world.w;
     let normal = normalize(world_normal_of(model_normal));
     let curvature_per_mm = terms_mesh_vertices[base + VERTEX_CURVATURE] * draw.curvature_scale;
-    let curvatures = light_curvatures_per_mm(
-        world_position,
-        normal,
-        curvature_per_mm,
-        world_anisotropy_of(vec3<f32>(
-            terms_mesh_vertices[base + VERTEX_ANISOTROPY],
-            terms_mesh_vertices[base + VERTEX_ANISOTROPY + 1u],
-            terms_mesh_vertices[base + VERTEX_ANISOTROPY + 2u],
-        )),
-    );
+    // (The shadow test's local shape keeps the mean curvature: read at the curvature along
+    // the light, a saddle's switch between sphere and tangent plane painted jagged lines of
+    // visibility along the torus's shadow side.)
 
     var terms: VertexTerms;
     terms.visibility_0 = vec4<f32>(1.0);
@@ -541,22 +534,22 @@ fn cs_vertex_terms(
         && MODEL != MODEL_CURVATURE {
         let count = min(shadows.light_count, frame.light_count);
         if count > 0u {
-            let light = vertex_non_local(0u, world_position, normal, curvatures.x);
+            let light = vertex_non_local(0u, world_position, normal, curvature_per_mm);
             terms.visibility_0 = vec4<f32>(light.visibility, 1.0);
             terms.transmission_0 = vec4<f32>(light.transmission, 0.0);
         }
         if count > 1u {
-            let light = vertex_non_local(1u, world_position, normal, curvatures.y);
+            let light = vertex_non_local(1u, world_position, normal, curvature_per_mm);
             terms.visibility_1 = vec4<f32>(light.visibility, 1.0);
             terms.transmission_1 = vec4<f32>(light.transmission, 0.0);
         }
         if count > 2u {
-            let light = vertex_non_local(2u, world_position, normal, curvatures.z);
+            let light = vertex_non_local(2u, world_position, normal, curvature_per_mm);
             terms.visibility_2 = vec4<f32>(light.visibility, 1.0);
             terms.transmission_2 = vec4<f32>(light.transmission, 0.0);
         }
         if count > 3u {
-            let light = vertex_non_local(3u, world_position, normal, curvatures.w);
+            let light = vertex_non_local(3u, world_position, normal, curvature_per_mm);
             terms.visibility_3 = vec4<f32>(light.visibility, 1.0);
             terms.transmission_3 = vec4<f32>(light.transmission, 0.0);
         }
@@ -1251,7 +1244,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
             if (SHADOWS || TRANSMISSION || SUBSURFACE) && i < shadows.light_count {
                 var terms: NonLocalTerms;
                 if MODEL == MODEL_LAMBERT {
-                    terms = non_local_terms(i, in.world_position, normal, curvature_per_mm);
+                    terms = non_local_terms(i, in.world_position, normal, in.curvature_per_mm);
                 } else {
                     terms = vertex_terms(in, i);
                 }
