@@ -260,7 +260,8 @@ fn render_unorm(scene: &Scene, assets: &SceneAssets) -> Srgb8Image {
     let mesh = renderer
         .create_mesh(
             device,
-            &MeshDesc::from_mesh(&assets.mesh, &assets.curvature_per_mm),
+            &MeshDesc::from_mesh(&assets.mesh, &assets.curvature_per_mm)
+                .with_curvature_anisotropy(&assets.curvature_anisotropy_per_mm),
         )
         .unwrap();
     let Material::Measured(lut) = &assets.material else {
