@@ -147,9 +147,11 @@ fn measured_sphere_under_a_uniform_sky_matches_integration_of_the_table() {
         .map(|n| {
             n.map(|n| {
                 // The renderer applies the view correction of light along the normal.
-                let g = lut
-                    .view_correction()
-                    .sample(0.0, n.z.clamp(-1.0, 1.0).acos());
+                let g = lut.view_correction().sample(
+                    1.0 / SPHERE_RADIUS_MM,
+                    0.0,
+                    n.z.clamp(-1.0, 1.0).acos(),
+                );
                 std::array::from_fn(|c| sky[c] * response[c] * g[c])
             })
         })

@@ -216,7 +216,7 @@ fn a_thin_slab_glows_from_behind() {
     let (lut, translucency) = wax();
     let thickness_mm = 4.0;
     let view = lut.view_correction().clone();
-    let flat_back = lut.sample(0.0, PI, Filter::Bilinear) * view.sample(PI, 0.0);
+    let flat_back = lut.sample(0.0, PI, Filter::Bilinear) * view.sample(0.0, PI, 0.0);
     let assets = slab(thickness_mm, Material::Measured(lut));
     let half_height = 40.0;
     let from_behind = Vec3::NEG_Z;
@@ -236,7 +236,7 @@ fn a_thin_slab_glows_from_behind() {
     // The centre of the face: radiance E/π · T(d, μ) · g(θ = π, φ = 0).
     let centre = pixel_of(0.0, 0.0, half_height);
     let expected =
-        translucency.transmission.evaluate(thickness_mm, 1.0).x * view.sample(PI, 0.0).x / PI;
+        translucency.transmission.evaluate(thickness_mm, 1.0).x * view.sample(0.0, PI, 0.0).x / PI;
     let found = mean_red(&glowing, centre, 4);
     println!("slab: {found:.5} with transmission (T(d) says {expected:.5})");
     assert!(
@@ -285,11 +285,12 @@ fn a_slab_lit_obliquely_from_behind_glows_by_its_entry_cosine() {
     let found = mean_red(&glowing, pixel_of(0.0, 0.0, half_height), 4);
     let entry_cosine = -theta.cos();
     let t = translucency.transmission;
-    let expected =
-        t.evaluate(thickness_mm / entry_cosine, entry_cosine).x * view.sample(theta, 0.0).x / PI;
+    let expected = t.evaluate(thickness_mm / entry_cosine, entry_cosine).x
+        * view.sample(0.0, theta, 0.0).x
+        / PI;
     // What T of the chord alone (entry cosine 1) would give: twice as bright.
     let without_entry =
-        t.evaluate(thickness_mm / entry_cosine, 1.0).x * view.sample(theta, 0.0).x / PI;
+        t.evaluate(thickness_mm / entry_cosine, 1.0).x * view.sample(0.0, theta, 0.0).x / PI;
     println!(
         "oblique slab: {found:.6} (T(8 mm, 0.5) says {expected:.6}; with μ = 1 {without_entry:.6})"
     );
@@ -569,7 +570,7 @@ fn the_subsurface_gather_matches_the_profile_through_a_slab() {
         .expect("the bundled fit has a profile");
     let far = FarField::new(profile, f64::from(options.subsurface_cut_mm));
     let power = f64::from(profile.entry_cosine_power());
-    let g = f64::from(lut.view_correction().sample(PI, 0.0).x);
+    let g = f64::from(lut.view_correction().sample(0.0, PI, 0.0).x);
     let kappa_min = f64::from(lut.curvature_axis().min_per_mm);
     let sphere = far.sphere_reflectance(kappa_min, std::f64::consts::PI, &mut Vec::new())[0];
     let thickness_mm = 4.0;

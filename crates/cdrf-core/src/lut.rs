@@ -106,6 +106,15 @@ impl CurvatureAxis {
         (t * (self.count - 1) as f32).clamp(0.0, (self.count - 1) as f32)
     }
 
+    /// One row at κ = 0: whatever is on it is the same at every curvature.
+    pub fn single() -> Self {
+        Self {
+            min_per_mm: 0.0,
+            max_per_mm: 0.0,
+            count: 1,
+        }
+    }
+
     fn validate(&self) -> Result<(), LutError> {
         let ok = self.count >= 1
             && self.min_per_mm.is_finite()
@@ -141,14 +150,19 @@ pub enum Filter {
     CatmullRom,
 }
 
-/// The view correction g(θ, φ): a grid over φ ∈ [0, π/2] (columns) × θ ∈ [0, π] (rows),
-/// sampled bilinearly, clamped at the edges (φ > π/2 reads the φ = π/2 column).
+/// The view correction g(κ, θ, φ): grids over φ ∈ [0, π/2] (columns) × θ ∈ [0, π] (rows), one
+/// per layer of a curvature axis, sampled bilinearly within a layer and linearly between
+/// layers, clamped at the edges (φ > π/2 reads the φ = π/2 column, κ beyond the axis its end
+/// layer).
 ///
-/// With one row it is the poster's g(φ); with one column and one row it is a constant.
+/// With one layer it is the same at every curvature (the poster's form, and every table before
+/// LUT format version 5); with one row it is the poster's g(φ); with one column and one row a
+/// constant.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ViewCorrection {
     phi_count: usize,
     theta_count: usize,
+    curvature_axis: CurvatureAxis,
     values: Vec<Vec3>,
 }
 
@@ -158,6 +172,7 @@ impl ViewCorrection {
         Self {
             phi_count: 1,
             theta_count: 1,
+            curvature_axis: CurvatureAxis::single(),
             values: vec![Vec3::ONE],
         }
     }
@@ -170,17 +185,33 @@ impl ViewCorrection {
         Self::new(values.len(), 1, values)
     }
 
-    /// A θ-dependent correction: `values[row · phi_count + column]` at
-    /// φ = column·(π/2)/(phi_count − 1), θ = row·π/(theta_count − 1).
+    /// A θ-dependent correction, the same at every curvature: `values[row · phi_count + column]`
+    /// at φ = column·(π/2)/(phi_count − 1), θ = row·π/(theta_count − 1).
     ///
     /// # Errors
     /// When the shape does not match `values.len()`, a count is 0, or a value is negative or
     /// non-finite.
     pub fn new(phi_count: usize, theta_count: usize, values: Vec<Vec3>) -> Result<Self, LutError> {
-        if phi_count == 0 || theta_count == 0 || phi_count * theta_count != values.len() {
+        Self::with_curvature_layers(phi_count, theta_count, CurvatureAxis::single(), values)
+    }
+
+    /// A correction that depends on curvature: one `theta_count × phi_count` grid per layer of
+    /// `curvature_axis`, `values[(layer · theta_count + row) · phi_count + column]`.
+    ///
+    /// # Errors
+    /// As [`ViewCorrection::new`], and [`LutError::BadCurvatureAxis`].
+    pub fn with_curvature_layers(
+        phi_count: usize,
+        theta_count: usize,
+        curvature_axis: CurvatureAxis,
+        values: Vec<Vec3>,
+    ) -> Result<Self, LutError> {
+        curvature_axis.validate()?;
+        let expected = phi_count * theta_count * curvature_axis.count;
+        if phi_count == 0 || theta_count == 0 || expected != values.len() {
             return Err(LutError::ShapeMismatch {
                 what: "view correction",
-                expected: phi_count * theta_count,
+                expected,
                 found: values.len(),
             });
         }
@@ -188,6 +219,7 @@ impl ViewCorrection {
         Ok(Self {
             phi_count,
             theta_count,
+            curvature_axis,
             values,
         })
     }
@@ -197,21 +229,35 @@ impl ViewCorrection {
         self.phi_count
     }
 
-    /// Rows along θ ∈ [0, π]; 1 for the poster's g(φ).
+    /// Rows along θ ∈ [0, π] in each layer; 1 for the poster's g(φ).
     pub fn theta_count(&self) -> usize {
         self.theta_count
     }
 
-    /// The grid, row-major (`row · phi_count + column`).
+    /// The layers' curvatures (one layer: the same at every curvature).
+    pub fn curvature_axis(&self) -> CurvatureAxis {
+        self.curvature_axis
+    }
+
+    /// The grids, layer after layer, each row-major (`(layer · theta_count + row) · phi_count +
+    /// column`).
     pub fn values(&self) -> &[Vec3] {
         &self.values
     }
 
-    /// g(θ, φ), bilinear.
-    pub fn sample(&self, theta_rad: f32, phi_rad: f32) -> Vec3 {
+    /// g(κ, θ, φ): bilinear within the two layers around κ, linear between them.
+    pub fn sample(&self, curvature_per_mm: f32, theta_rad: f32, phi_rad: f32) -> Vec3 {
         let u = axis_coordinate(phi_rad, FRAC_PI_2, self.phi_count);
         let v = axis_coordinate(theta_rad, PI, self.theta_count);
-        bilinear(&self.values, self.phi_count, self.theta_count, u, v)
+        let layer_size = self.phi_count * self.theta_count;
+        let at = |layer: usize| {
+            let grid = &self.values[layer * layer_size..(layer + 1) * layer_size];
+            bilinear(grid, self.phi_count, self.theta_count, u, v)
+        };
+        let w = self.curvature_axis.row_coordinate(curvature_per_mm);
+        let below = (w as usize).min(self.curvature_axis.count - 1);
+        let above = (below + 1).min(self.curvature_axis.count - 1);
+        at(below).lerp(at(above), w - below as f32)
     }
 }
 
@@ -502,7 +548,9 @@ impl CdrfLut {
         filter: Filter,
     ) -> Vec3 {
         self.sample(curvature_per_mm, theta_rad, filter)
-            * self.view_correction.sample(theta_rad, phi_rad)
+            * self
+                .view_correction
+                .sample(curvature_per_mm, theta_rad, phi_rad)
     }
 }
 

@@ -1,13 +1,13 @@
 //! The LUT file: an OpenEXR any image tool can open.
 //!
-//! # Layout (format version 4)
+//! # Layout (format version 5)
 //! A multi-part OpenEXR file, 32-bit float, lossless (ZIP) compression:
 //!
 //! | part (layer name) | size (width × height) | channels | content |
 //! |---|---|---|---|
 //! | `cdrf.lut` | θ columns × κ rows | `R`, `G`, `B` | f(κ, θ), π·L/E (see [`crate::lut`]) |
 //! | | | `coverage.samples`, `coverage.spread` | only when the table has [`TexelCoverage`] |
-//! | `cdrf.view` | φ columns × θ rows | `R`, `G`, `B` | the view correction g(θ, φ) |
+//! | `cdrf.view` | φ columns × (θ rows × layers) | `R`, `G`, `B` | the view correction g(κ, θ, φ), one θ × φ grid per curvature layer, top to bottom |
 //!
 //! Row 0 of `cdrf.lut` (the top of the picture in an image viewer) is the smallest curvature,
 //! column 0 is θ = 0 (facing the light). The `cdrf.lut` part carries these header attributes:
@@ -28,9 +28,12 @@
 //! | `cdrf.diffusion.terms` | int | version 4, optional: the number n of terms of the [`DiffusionProfile`] (1 … 16) |
 //! | `cdrf.diffusion.term_K.length_mm`, `cdrf.diffusion.term_K.weight` | float, v3f | version 4, with `terms`: ℓ and w (R, G, B) of term K = 0 … n − 1 |
 //! | `cdrf.diffusion.entry_cosine_power` | float | version 4, with `terms`: p of the entry factor |
+//! | `cdrf.view.curvature_layers` | int | version 5, optional: the view correction's layers n ≥ 2 (absent: one, the same at every curvature) |
+//! | `cdrf.view.curvature_min_per_mm`, `cdrf.view.curvature_max_per_mm` | float | version 5, with `curvature_layers`: κ of the first and last layer (uniform between) |
 //!
 //! The translucency attributes come together or not at all, and so do the diffusion ones. Older
-//! files still load: versions 1–3 have no diffusion profile ([`CdrfLut::diffusion_profile`] is
+//! files still load: versions 1–4 have one view correction for every curvature; versions 1–3
+//! have no diffusion profile ([`CdrfLut::diffusion_profile`] is
 //! `None`); version 2 files have no p and mean T(d) alone (p = 0); version 1 files have no
 //! translucency ([`CdrfLut::translucency`] is `None`).
 //!
@@ -52,7 +55,7 @@ use crate::lut::{CdrfLut, CurvatureAxis, LutError, TexelCoverage, ViewCorrection
 use crate::translucency::{Translucency, TransmissionProfile};
 
 /// The version this crate writes and the newest it reads.
-pub const FORMAT_VERSION: i32 = 4;
+pub const FORMAT_VERSION: i32 = 5;
 
 const LUT_LAYER: &str = "cdrf.lut";
 const VIEW_LAYER: &str = "cdrf.view";
@@ -72,6 +75,11 @@ const ATTR_TRANSMISSION_LENGTH: &str = "cdrf.transmission.length_mm";
 const ATTR_TRANSMISSION_ENTRY_POWER: &str = "cdrf.transmission.entry_cosine_power";
 const ATTR_DIFFUSION_TERMS: &str = "cdrf.diffusion.terms";
 const ATTR_DIFFUSION_ENTRY_POWER: &str = "cdrf.diffusion.entry_cosine_power";
+const ATTR_VIEW_LAYERS: &str = "cdrf.view.curvature_layers";
+const ATTR_VIEW_CURVATURE_MIN: &str = "cdrf.view.curvature_min_per_mm";
+const ATTR_VIEW_CURVATURE_MAX: &str = "cdrf.view.curvature_max_per_mm";
+/// The first version whose view correction may depend on curvature.
+const VIEW_LAYERS_SINCE_VERSION: i32 = 5;
 /// The first version with a diffusion profile.
 const DIFFUSION_SINCE_VERSION: i32 = 4;
 /// The first version whose transmission profile has an entry cosine power.
@@ -299,9 +307,42 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
     }
 
     let view = find(VIEW_LAYER).ok_or_else(|| not_ours(format!("no `{VIEW_LAYER}` layer")))?;
-    let view_correction = ViewCorrection::new(
+    // Versions before 5 have one layer: the same correction at every curvature.
+    let view_axis = match attributes.get(&Text::from(ATTR_VIEW_LAYERS)) {
+        None => CurvatureAxis::single(),
+        Some(AttributeValue::I32(layers)) if version >= VIEW_LAYERS_SINCE_VERSION => {
+            let layers = usize::try_from(*layers)
+                .ok()
+                .filter(|&layers| layers >= 1 && layers <= view.size.height())
+                .ok_or_else(|| {
+                    not_ours(format!(
+                        "`{ATTR_VIEW_LAYERS}` {layers}: must be 1 … the view layer's {} rows",
+                        view.size.height()
+                    ))
+                })?;
+            CurvatureAxis {
+                min_per_mm: float(ATTR_VIEW_CURVATURE_MIN)?,
+                max_per_mm: float(ATTR_VIEW_CURVATURE_MAX)?,
+                count: layers,
+            }
+        }
+        Some(_) => {
+            return Err(not_ours(format!(
+                "`{ATTR_VIEW_LAYERS}` is not an int, or the file's version {version} is before {VIEW_LAYERS_SINCE_VERSION}"
+            )));
+        }
+    };
+    if !view.size.height().is_multiple_of(view_axis.count) {
+        return Err(not_ours(format!(
+            "`{VIEW_LAYER}` has {} rows: not a multiple of its {} curvature layers",
+            view.size.height(),
+            view_axis.count
+        )));
+    }
+    let view_correction = ViewCorrection::with_curvature_layers(
         view.size.width(),
-        view.size.height(),
+        view.size.height() / view_axis.count,
+        view_axis,
         rgb(VIEW_LAYER, &view.channel_data.list)?,
     )
     .map_err(invalid)?;
@@ -438,6 +479,21 @@ fn lut_layer(lut: &CdrfLut) -> Layer<AnyChannels<FlatSamples>> {
             AttributeValue::F32(translucency.transmission.entry_cosine_power),
         );
     }
+    let view_axis = lut.view_correction().curvature_axis();
+    if view_axis.count > 1 {
+        other.insert(
+            Text::from(ATTR_VIEW_LAYERS),
+            AttributeValue::I32(view_axis.count as i32),
+        );
+        other.insert(
+            Text::from(ATTR_VIEW_CURVATURE_MIN),
+            AttributeValue::F32(view_axis.min_per_mm),
+        );
+        other.insert(
+            Text::from(ATTR_VIEW_CURVATURE_MAX),
+            AttributeValue::F32(view_axis.max_per_mm),
+        );
+    }
     if let Some(profile) = lut.diffusion_profile() {
         other.insert(
             Text::from(ATTR_DIFFUSION_TERMS),
@@ -518,7 +574,10 @@ fn read_diffusion_profile(
 
 fn view_layer(view: &ViewCorrection) -> Layer<AnyChannels<FlatSamples>> {
     Layer::new(
-        (view.phi_count(), view.theta_count()),
+        (
+            view.phi_count(),
+            view.theta_count() * view.curvature_axis().count,
+        ),
         LayerAttributes::named(VIEW_LAYER),
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(rgb_channels(view.values()).into()),

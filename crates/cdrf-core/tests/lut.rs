@@ -178,10 +178,10 @@ fn view_correction_multiplies_and_interpolates() {
         vec![Vec3::ONE, Vec3::splat(2.0), Vec3::ONE, Vec3::splat(0.5)],
     )
     .unwrap();
-    assert!((g.sample(0.0, FRAC_PI_2).x - 2.0).abs() < 1e-6);
-    assert!((g.sample(PI, FRAC_PI_2).x - 0.5).abs() < 1e-6);
-    assert!((g.sample(FRAC_PI_2, FRAC_PI_2).x - 1.25).abs() < 1e-6);
-    assert_eq!(ViewCorrection::identity().sample(1.0, 1.0), Vec3::ONE);
+    assert!((g.sample(0.05, 0.0, FRAC_PI_2).x - 2.0).abs() < 1e-6);
+    assert!((g.sample(0.05, PI, FRAC_PI_2).x - 0.5).abs() < 1e-6);
+    assert!((g.sample(0.05, FRAC_PI_2, FRAC_PI_2).x - 1.25).abs() < 1e-6);
+    assert_eq!(ViewCorrection::identity().sample(0.05, 1.0, 1.0), Vec3::ONE);
 }
 
 #[test]
@@ -267,4 +267,40 @@ fn lambert_albedo_recovers_a_lambertian_table_and_fits_a_glowing_one() {
             "{fitted:?} vs {albedo:?}"
         );
     }
+}
+
+/// A view correction with curvature layers: each layer at its κ, linear between, the end layers
+/// beyond the axis; a wrong shape or axis is refused.
+#[test]
+fn view_correction_layers_interpolate_in_curvature() {
+    use cdrf_core::lut::CurvatureAxis;
+    let layers = CurvatureAxis {
+        min_per_mm: 0.02,
+        max_per_mm: 0.06,
+        count: 3,
+    };
+    // 2 φ columns × 2 θ rows per layer; layer l holds 1 + l everywhere.
+    let values: Vec<Vec3> = (0..12).map(|i| Vec3::splat(1.0 + (i / 4) as f32)).collect();
+    let g = ViewCorrection::with_curvature_layers(2, 2, layers, values).unwrap();
+    for (kappa, expected) in [
+        (0.0, 1.0),
+        (0.02, 1.0),
+        (0.03, 1.5),
+        (0.04, 2.0),
+        (0.055, 2.75),
+        (1.0, 3.0),
+    ] {
+        let found = g.sample(kappa, 1.0, 0.5).x;
+        assert!(
+            (found - expected).abs() < 1e-5,
+            "κ {kappa}: {found} vs {expected}"
+        );
+    }
+    assert!(ViewCorrection::with_curvature_layers(2, 2, layers, vec![Vec3::ONE; 8]).is_err());
+    let backwards = CurvatureAxis {
+        min_per_mm: 0.06,
+        max_per_mm: 0.02,
+        count: 3,
+    };
+    assert!(ViewCorrection::with_curvature_layers(2, 2, backwards, vec![Vec3::ONE; 12]).is_err());
 }

@@ -50,6 +50,17 @@ fn round_trip_keeps_everything() {
         .collect();
     assert_eq!(names, vec![std::ffi::OsString::from("measured.exr")]);
 
+    // A view correction with curvature layers (format version 5) too.
+    let layers = CurvatureAxis::from_radii_mm(50.0, 15.0, 3);
+    let layered: Vec<Vec3> = (0..36)
+        .map(|i| Vec3::new(1.0, 0.8 + i as f32 * 0.02, 0.9))
+        .collect();
+    let lut_layered = fitted_like_table().with_view_correction(
+        ViewCorrection::with_curvature_layers(4, 3, layers, layered).unwrap(),
+    );
+    write_lut(&lut_layered, &path).unwrap();
+    assert_eq!(read_lut(&path).unwrap(), lut_layered);
+
     // Without coverage and with the default view correction too.
     let plain = CdrfLut::tabulate(&Ramp, CurvatureAxis::from_radii_mm(40.0, 20.0, 3), 5).unwrap();
     write_lut(&plain, &path).unwrap();

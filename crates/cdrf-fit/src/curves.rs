@@ -10,9 +10,12 @@
 //!   fitted to each sphere alone fits no better for r ≥ 25 mm; only the smallest (15 mm) would
 //!   gain about half a percent of residual. One shared g also keeps the table interpolable
 //!   across radii;
-//! - optionally `c(θ, φ)`: a smooth multiplicative correction on a coarse bilinear grid (10°),
-//!   shared by all radii and pulled toward 1 where the data says nothing
-//!   ([`ViewModel::ThetaPhi`]). Physically the exitant radiance of a diffusing medium is
+//! - optionally `c_k(θ, φ)`: a smooth multiplicative correction on a coarse bilinear grid (10°),
+//!   **one per sphere**, pulled toward 1 where the data says nothing ([`ViewModel::ThetaPhi`]);
+//!   the table interpolates it across curvature like f (LUT format 5's curvature layers). Shared
+//!   by all radii (as until 2026-12-03), it was a compromise that spheres smaller than 15 mm
+//!   pulled away from the large ones: with r = 5–12.5 mm in the fit the r = 35 mm sphere's error
+//!   rose from 0.73 % to 1.08 %. Physically the exitant radiance of a diffusing medium is
 //!   `Φ/4π + 3/(4π)·F·ω`: the net flux F points into the surface on the lit side and along it
 //!   near the terminator, so grazing views are relatively brighter on the lit side and darker on
 //!   the shadow side — no single g(φ) can do both.
@@ -39,7 +42,7 @@ use crate::sphere::Sample;
 pub enum ViewModel {
     /// The poster's g(φ), shared by all radii.
     Phi,
-    /// g(φ) times a smooth θ-dependent correction c(θ, φ), shared by all radii.
+    /// g(φ) times a smooth θ-dependent correction c(θ, φ) per sphere.
     #[default]
     ThetaPhi,
 }
@@ -94,31 +97,31 @@ pub struct CurveFit {
     pub node_noise: Vec<Vec<Vec3>>,
     /// The poster's g(φ) on the φ nodes, g(0) = 1.
     pub g_phi: Vec<Vec3>,
-    /// c(θ, φ) on the coarse grid (row-major, θ rows), when fitted.
-    pub correction: Option<Vec<Vec3>>,
+    /// c_k(θ, φ) per sphere (input order) on the coarse grid (row-major, θ rows), when fitted.
+    pub correction: Option<Vec<Vec<Vec3>>>,
     /// Samples dropped as outliers, per sphere.
     pub outliers: Vec<usize>,
 }
 
 impl CurveFit {
-    /// The full view factor g(φ)·c(θ, φ) at a sample's angles.
-    pub fn view_factor(&self, theta_rad: f32, phi_rad: f32) -> Vec3 {
+    /// The full view factor g(φ)·c_k(θ, φ) of sphere `k` at a sample's angles.
+    pub fn view_factor(&self, sphere: usize, theta_rad: f32, phi_rad: f32) -> Vec3 {
         let basis = Basis::new(theta_rad, phi_rad, &self.settings);
-        self.view_factor_at(&basis)
+        self.view_factor_at(sphere, &basis)
     }
 
-    fn view_factor_at(&self, basis: &Basis) -> Vec3 {
+    fn view_factor_at(&self, sphere: usize, basis: &Basis) -> Vec3 {
         let g = hat(&self.g_phi, basis.phi);
         match &self.correction {
             None => g,
-            Some(c) => g * basis.coarse.evaluate(c),
+            Some(c) => g * basis.coarse.evaluate(&c[sphere]),
         }
     }
 
-    /// The model radiance f_k(θ)·g(φ)·c(θ, φ) of sphere `k`, π·L/E.
+    /// The model radiance f_k(θ)·g(φ)·c_k(θ, φ) of sphere `k`, π·L/E.
     pub fn model(&self, sphere: usize, theta_rad: f32, phi_rad: f32) -> Vec3 {
         let basis = Basis::new(theta_rad, phi_rad, &self.settings);
-        hat(&self.curves[sphere], basis.theta) * self.view_factor_at(&basis)
+        hat(&self.curves[sphere], basis.theta) * self.view_factor_at(sphere, &basis)
     }
 }
 
@@ -275,8 +278,11 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
         };
     }
     fit.correction = Some(vec![
-        Vec3::ONE;
-        CORRECTION_THETA_COUNT * CORRECTION_PHI_COUNT
+        vec![
+            Vec3::ONE;
+            CORRECTION_THETA_COUNT * CORRECTION_PHI_COUNT
+        ];
+        spheres.len()
     ]);
     for round in 0..2 {
         fit_correction(&mut fit, &points);
@@ -332,14 +338,14 @@ fn reweight_points(
             let peak = fit.curves[k].iter().fold(Vec3::ZERO, |m, v| m.max(*v));
             let floor = (peak * MODEL_FLOOR).max(Vec3::splat(1e-12));
             let model = |p: &Point| {
-                (hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(&p.basis)).max(floor)
+                (hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(k, &p.basis)).max(floor)
             };
             // Relative deviations per band and channel, only where the model is above its floor
             // (below it the ratio measures the floor, not the noise).
             let mut deviations: Vec<[Vec<f32>; 3]> = vec![Default::default(); BANDS];
             // Every 4th sample is plenty for a median (thousands per band).
             for p in sphere_points.iter().step_by(4) {
-                let m = hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(&p.basis);
+                let m = hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(k, &p.basis);
                 for c in 0..3 {
                     if m[c] > floor[c] {
                         deviations[p.band as usize][c].push((p.radiance[c] / m[c] - 1.0).abs());
@@ -412,14 +418,15 @@ fn fit_f(fit: &mut CurveFit, points: &[Vec<Point>]) {
     let n = fit.settings.theta_count;
     let curves: Vec<Vec<Vec3>> = points
         .par_iter()
-        .map(|sphere_points| {
+        .enumerate()
+        .map(|(k, sphere_points)| {
             let (mut diagonal, mut upper, mut rhs) = (
                 vec![Vec3::ZERO; n],
                 vec![Vec3::ZERO; n],
                 vec![Vec3::ZERO; n],
             );
             for p in sphere_points {
-                let view = fit.view_factor_at(&p.basis);
+                let view = fit.view_factor_at(k, &p.basis);
                 let (a, t) = p.basis.theta;
                 let a = a as usize;
                 let (b0, b1) = (1.0 - t, t);
@@ -458,7 +465,7 @@ fn fit_g(fit: &mut CurveFit, points: &[Vec<Point>]) {
             for p in sphere_points {
                 let mut f = hat(&fit.curves[k], p.basis.theta);
                 if let Some(c) = &fit.correction {
-                    f *= p.basis.coarse.evaluate(c);
+                    f *= p.basis.coarse.evaluate(&c[k]);
                 }
                 let (b, t) = p.basis.phi;
                 let b = b as usize;
@@ -494,16 +501,16 @@ fn fit_g(fit: &mut CurveFit, points: &[Vec<Point>]) {
     }
 }
 
-/// Fits c(θ, φ) (dense normal equations on the coarse grid, ridge toward 1 and a smoothness
-/// penalty between neighbours, both scaled to the data).
+/// Fits each sphere's c_k(θ, φ) (dense normal equations on the coarse grid, ridge toward 1 and
+/// a smoothness penalty between neighbours, both scaled to that sphere's data).
 fn fit_correction(fit: &mut CurveFit, points: &[Vec<Point>]) {
     const N: usize = CORRECTION_THETA_COUNT * CORRECTION_PHI_COUNT;
-    let zero = || (vec![[Vec3::ZERO; N]; N], vec![Vec3::ZERO; N]);
-    let (mut matrix, mut rhs) = points
+    let previous = fit.correction.take().unwrap_or_default();
+    let corrections: Vec<Vec<Vec3>> = points
         .par_iter()
         .enumerate()
         .map(|(k, sphere_points)| {
-            let (mut matrix, mut rhs) = zero();
+            let (mut matrix, mut rhs) = (vec![[Vec3::ZERO; N]; N], vec![Vec3::ZERO; N]);
             // c lives on a 10° grid: every other sample still gives it thousands per node.
             for p in sphere_points.iter().step_by(2) {
                 let g = hat(&fit.g_phi, p.basis.phi);
@@ -517,46 +524,40 @@ fn fit_correction(fit: &mut CurveFit, points: &[Vec<Point>]) {
                     }
                 }
             }
-            (matrix, rhs)
-        })
-        .reduce(zero, |mut a, b| {
+            let mean_diagonal = (0..N).map(|i| matrix[i][i]).sum::<Vec3>() / N as f32;
+            let ridge = mean_diagonal * 1e-3;
+            let smooth = mean_diagonal * 1e-2;
             for i in 0..N {
-                a.1[i] += b.1[i];
-                for j in 0..N {
-                    a.0[i][j] += b.0[i][j];
+                matrix[i][i] += ridge;
+                rhs[i] += ridge;
+                let (row, column) = (i / CORRECTION_PHI_COUNT, i % CORRECTION_PHI_COUNT);
+                let mut neighbours = Vec::with_capacity(2);
+                if column + 1 < CORRECTION_PHI_COUNT {
+                    neighbours.push(i + 1);
+                }
+                if row + 1 < CORRECTION_THETA_COUNT {
+                    neighbours.push(i + CORRECTION_PHI_COUNT);
+                }
+                for j in neighbours {
+                    matrix[i][i] += smooth;
+                    matrix[j][j] += smooth;
+                    matrix[i][j] -= smooth;
+                    matrix[j][i] -= smooth;
                 }
             }
-            a
-        });
-    let mean_diagonal = (0..N).map(|i| matrix[i][i]).sum::<Vec3>() / N as f32;
-    let ridge = mean_diagonal * 1e-3;
-    let smooth = mean_diagonal * 1e-2;
-    for i in 0..N {
-        matrix[i][i] += ridge;
-        rhs[i] += ridge;
-        let (row, column) = (i / CORRECTION_PHI_COUNT, i % CORRECTION_PHI_COUNT);
-        let mut neighbours = Vec::with_capacity(2);
-        if column + 1 < CORRECTION_PHI_COUNT {
-            neighbours.push(i + 1);
-        }
-        if row + 1 < CORRECTION_THETA_COUNT {
-            neighbours.push(i + CORRECTION_PHI_COUNT);
-        }
-        for j in neighbours {
-            matrix[i][i] += smooth;
-            matrix[j][j] += smooth;
-            matrix[i][j] -= smooth;
-            matrix[j][i] -= smooth;
-        }
-    }
-    if let Some(solution) = solve_dense(matrix, rhs) {
-        fit.correction = Some(
-            solution
-                .into_iter()
-                .map(|v| v.max(Vec3::splat(0.05)))
-                .collect(),
-        );
-    }
+            match solve_dense(matrix, rhs) {
+                Some(solution) => solution
+                    .into_iter()
+                    .map(|v| v.max(Vec3::splat(0.05)))
+                    .collect(),
+                None => previous
+                    .get(k)
+                    .cloned()
+                    .unwrap_or_else(|| vec![Vec3::ONE; N]),
+            }
+        })
+        .collect();
+    fit.correction = Some(corrections);
 }
 
 /// Gaussian elimination with partial pivoting, per channel.

@@ -444,7 +444,7 @@ pub fn fit_samples(
         .enumerate()
         .map(|(k, sphere)| {
             let curvature = sphere.curvature_per_mm;
-            let view = |theta: f32, phi: f32| lut.view_correction().sample(theta, phi);
+            let view = |theta: f32, phi: f32| lut.view_correction().sample(curvature, theta, phi);
             ModelErrors {
                 measured: sphere_error(sphere, |theta, phi| {
                     lut.evaluate(curvature, theta, phi, Filter::Bilinear)

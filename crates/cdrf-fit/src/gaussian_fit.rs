@@ -51,7 +51,8 @@ pub fn fit_gaussian(
     // Per sphere: [channel] normal equations, and Σ L² per channel.
     let per_sphere: Vec<([Normal; 3], [f64; 3])> = spheres
         .par_iter()
-        .map(|sphere| {
+        .enumerate()
+        .map(|(k, sphere)| {
             let make = || Normal {
                 curvature_per_mm: sphere.curvature_per_mm as f64,
                 diagonal: vec![0.0; n],
@@ -61,7 +62,7 @@ pub fn fit_gaussian(
             let mut normals = [make(), make(), make()];
             let mut energy = [0.0_f64; 3];
             for s in &sphere.samples {
-                let g = fit.view_factor(s.theta_rad, s.phi_rad);
+                let g = fit.view_factor(k, s.theta_rad, s.phi_rad);
                 let u = (s.theta_rad as f64 / std::f64::consts::PI * (n - 1) as f64)
                     .clamp(0.0, (n - 1) as f64);
                 let a = (u as usize).min(n - 2);

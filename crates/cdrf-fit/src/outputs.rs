@@ -117,8 +117,9 @@ pub struct Report {
     pub g_phi: Vec<(f32, [f32; 3])>,
     /// The poster's g(φ), fitted alone (no θ-dependent correction).
     pub poster_g_phi: Vec<(f32, [f32; 3])>,
-    /// The θ-dependent correction c(θ, φ) (θ rows 10° apart, φ columns 10° apart), when fitted.
-    pub theta_phi_correction: Option<Vec<Vec<[f32; 3]>>>,
+    /// The θ-dependent correction c_k(θ, φ) of each sphere (in `spheres` order; θ rows 10°
+    /// apart, φ columns 10° apart), when fitted.
+    pub theta_phi_correction: Option<Vec<Vec<Vec<[f32; 3]>>>>,
     /// Residuals of the two view models, summed over spheres.
     pub view_model_residuals: ViewResiduals,
     /// The fitted Gaussian CDRF.
@@ -396,9 +397,14 @@ impl Report {
         };
         let g_phi = phi_table(&fit.curves.chosen.g_phi);
         let poster_g_phi = phi_table(&fit.curves.poster.g_phi);
-        let theta_phi_correction = fit.curves.chosen.correction.as_ref().map(|grid| {
-            grid.chunks(CORRECTION_PHI_COUNT)
-                .map(|row| row.iter().map(|v| v.to_array()).collect())
+        let theta_phi_correction = fit.curves.chosen.correction.as_ref().map(|grids| {
+            grids
+                .iter()
+                .map(|grid| {
+                    grid.chunks(CORRECTION_PHI_COUNT)
+                        .map(|row| row.iter().map(|v| v.to_array()).collect())
+                        .collect()
+                })
                 .collect()
         });
         let axis = fit.lut.curvature_axis();
@@ -698,7 +704,7 @@ fn view_plot(fit: &Fit) -> String {
     let chosen = &fit.curves.chosen;
     let phi_deg = |i: usize, n: usize| 90.0 * i as f32 / (n - 1) as f32;
     let mut plot = LinePlot::new(
-        "View correction: g(φ), and g(φ)·c(θ, φ) at a few θ",
+        "View correction: g(φ), and g(φ)·c(θ, φ) of one sphere at a few θ",
         "φ, angle between normal and view (degrees)",
         "factor",
     )
@@ -713,14 +719,22 @@ fn view_plot(fit: &Fit) -> String {
             .collect();
         plot = plot.with_series(Series::new(format!("g(φ) {name}"), color, points));
     }
-    if chosen.correction.is_some() {
+    // The correction is per sphere: shown for the middle one by curvature.
+    let mut order: Vec<usize> = (0..fit.samples.len()).collect();
+    order.sort_by(|&a, &b| {
+        fit.samples[a]
+            .curvature_per_mm
+            .total_cmp(&fit.samples[b].curvature_per_mm)
+    });
+    if let (Some(_), Some(&sphere)) = (&chosen.correction, order.get(order.len() / 2)) {
+        let radius_mm = 1.0 / fit.samples[sphere].curvature_per_mm;
         for (j, theta_deg) in [30.0_f32, 60.0, 80.0, 100.0, 120.0].into_iter().enumerate() {
             let points = (0..=45)
                 .map(|i| {
                     let phi = (2.0 * i as f32).to_radians();
                     (
                         2.0 * i as f32,
-                        chosen.view_factor(theta_deg.to_radians(), phi).y,
+                        chosen.view_factor(sphere, theta_deg.to_radians(), phi).y,
                     )
                 })
                 // Only where a sphere lit at 90° to the view has data: φ ≥ |90° − θ|.
@@ -728,8 +742,12 @@ fn view_plot(fit: &Fit) -> String {
                 .collect();
             let color = Colormap::Inferno.color_at(0.15 + 0.17 * j as f32);
             plot = plot.with_series(
-                Series::new(format!("G, θ = {theta_deg}°"), color, points)
-                    .with_style(LineStyle::Dashed),
+                Series::new(
+                    format!("G, θ = {theta_deg}°, r = {radius_mm:.3} mm"),
+                    color,
+                    points,
+                )
+                .with_style(LineStyle::Dashed),
             );
         }
     }

@@ -10,6 +10,11 @@ use crate::curves::{CurveFit, ViewModel};
 /// Rows of the view-correction grid stored with a θ-dependent correction (5° apart).
 pub const VIEW_THETA_ROWS: usize = 37;
 
+/// Curvature layers of the view correction with a θ-dependent correction (uniform over the
+/// table's curvature axis, at most its rows): each sphere's correction, linear in κ between
+/// neighbouring spheres. 32 × 37 rows stay within the 2048 texels a GPU texture is guaranteed.
+pub const VIEW_CURVATURE_LAYERS: usize = 32;
+
 /// Why the table could not be built.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -95,7 +100,7 @@ pub fn build_table(
     }
     Ok(CdrfLut::new(axis, theta_count, radiance)?
         .with_coverage(coverage)?
-        .with_view_correction(view_correction(fit)?))
+        .with_view_correction(view_correction(fit, curvature_per_mm, axis)?))
 }
 
 /// Relative standard error a smoothed node aims for (1 %).
@@ -172,26 +177,56 @@ pub fn smooth_curve(fit: &CurveFit, sphere: usize) -> Vec<Vec3> {
     out
 }
 
-/// The fit's view factor as the table's [`ViewCorrection`] grid.
+/// The fit's view factor as the table's [`ViewCorrection`] grid: g(φ) alone, or g(φ)·c(κ, θ, φ)
+/// on [`VIEW_CURVATURE_LAYERS`] layers over the table's curvature `axis`, each sphere's c_k
+/// (curvatures `curvature_per_mm`, the fit's order) linear in κ between neighbouring spheres and
+/// held beyond the ends.
 ///
 /// # Errors
 /// When the fitted values are not a valid grid (negative or non-finite).
-pub fn view_correction(fit: &CurveFit) -> Result<ViewCorrection, LutError> {
-    match fit.settings.view_model {
-        ViewModel::Phi => ViewCorrection::from_phi(fit.g_phi.clone()),
-        ViewModel::ThetaPhi => {
-            let phi_count = fit.settings.phi_count;
-            let values = (0..VIEW_THETA_ROWS)
-                .flat_map(|row| {
-                    let theta = std::f32::consts::PI * row as f32 / (VIEW_THETA_ROWS - 1) as f32;
-                    (0..phi_count).map(move |column| {
-                        let phi =
-                            std::f32::consts::FRAC_PI_2 * column as f32 / (phi_count - 1) as f32;
-                        fit.view_factor(theta, phi)
-                    })
-                })
-                .collect();
-            ViewCorrection::new(phi_count, VIEW_THETA_ROWS, values)
-        }
+pub fn view_correction(
+    fit: &CurveFit,
+    curvature_per_mm: &[f32],
+    axis: CurvatureAxis,
+) -> Result<ViewCorrection, LutError> {
+    if fit.settings.view_model == ViewModel::Phi || fit.correction.is_none() {
+        return ViewCorrection::from_phi(fit.g_phi.clone());
     }
+    let layers = if axis.count > 1 {
+        CurvatureAxis {
+            count: VIEW_CURVATURE_LAYERS.min(axis.count),
+            ..axis
+        }
+    } else {
+        axis
+    };
+    let mut order: Vec<usize> = (0..curvature_per_mm.len()).collect();
+    order.sort_by(|&a, &b| curvature_per_mm[a].total_cmp(&curvature_per_mm[b]));
+    let phi_count = fit.settings.phi_count;
+    let values = (0..layers.count)
+        .flat_map(|layer| {
+            let curvature = layers.curvature_per_mm(layer);
+            // The two spheres around this curvature and the weight of the upper one.
+            let upper = order
+                .partition_point(|&k| curvature_per_mm[k] < curvature)
+                .min(order.len() - 1);
+            let lower = upper.saturating_sub(1);
+            let (k0, k1) = (order[lower], order[upper]);
+            let span = curvature_per_mm[k1] - curvature_per_mm[k0];
+            let t = if span > 0.0 {
+                ((curvature - curvature_per_mm[k0]) / span).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (0..VIEW_THETA_ROWS).flat_map(move |row| {
+                let theta = std::f32::consts::PI * row as f32 / (VIEW_THETA_ROWS - 1) as f32;
+                (0..phi_count).map(move |column| {
+                    let phi = std::f32::consts::FRAC_PI_2 * column as f32 / (phi_count - 1) as f32;
+                    fit.view_factor(k0, theta, phi)
+                        .lerp(fit.view_factor(k1, theta, phi), t)
+                })
+            })
+        })
+        .collect();
+    ViewCorrection::with_curvature_layers(phi_count, VIEW_THETA_ROWS, layers, values)
 }

@@ -117,7 +117,7 @@ fn every_named_preset_is_valid_and_flat_head_on_gives_its_albedo() {
             lut.provenance().get("preset").map(String::as_str),
             Some(name)
         );
-        assert_eq!(lut.view_correction().sample(0.3, 1.2), Vec3::ONE);
+        assert_eq!(lut.view_correction().sample(0.05, 0.3, 1.2), Vec3::ONE);
     }
 }
 
@@ -533,7 +533,7 @@ fn wax_preset_against_the_measured_fit_and_the_photographs() {
         });
         let with_g = sphere_error(&sphere, |theta, phi| {
             preset.sample(kappa, theta, Filter::Bilinear)
-                * measured.view_correction().sample(theta, phi)
+                * measured.view_correction().sample(kappa, theta, phi)
         });
         let (lit, _) = table_difference(&preset, &measured, kappa, |c| c >= 0.26);
         let (shadow, shadow_ratio) = table_difference(&preset, &measured, kappa, |c| c <= -0.26);

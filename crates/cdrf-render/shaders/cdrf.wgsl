@@ -193,6 +193,10 @@ struct Material {
     specular_ior: f32,
     // κ of the zonal table's first and last row, mm⁻¹ (equal: one row).
     environment_curvature_per_mm: vec2<f32>,
+    // κ of the view correction's first and last layer, mm⁻¹, and its layers (view_size.y rows
+    // each, stacked down the texture; one layer: the same at every curvature).
+    view_curvature_per_mm: vec2<f32>,
+    view_layers: f32,
     // Tap k lies at radius 2σ_max·√(k / PENUMBRA_TAPS).
     penumbra_taps: array<PenumbraTap, PENUMBRA_TAPS>,
     // The subsurface gather's R_far(d) per channel (mm⁻², xyz) at
@@ -406,7 +410,7 @@ fn vertex_out(vertex: VertexIn) -> VertexOut {
         if MODEL != MODEL_LAMBERT {
             // Light from everywhere: the view correction of light along the normal.
             let phi = angle(dot(normal, to_camera_from(out.world_position)));
-            environment *= view_value(0.0, phi);
+            environment *= view_value(out.curvature_per_mm, 0.0, phi);
         }
         out.vertex_radiance = environment;
     }
@@ -649,12 +653,26 @@ fn lut_coordinates(curvature_per_mm: f32, theta: f32) -> vec2<f32> {
     return vec2<f32>(node_coordinate(theta, PI, size.x), row);
 }
 
-// g(θ, φ): φ across (columns over [0, π/2]), θ down (rows over [0, π]).
-fn view_value(theta: f32, phi: f32) -> vec3<f32> {
+// g(κ, θ, φ): φ across (columns over [0, π/2]), θ down (rows over [0, π]) in each curvature
+// layer, the layers stacked down the texture; bilinear within the two layers around κ, linear
+// between them.
+fn view_value(curvature_per_mm: f32, theta: f32, phi: f32) -> vec3<f32> {
     let size = material.view_size;
+    let layers = material.view_layers;
+    let texture_size = vec2<f32>(size.x, size.y * layers);
     let column = node_coordinate(phi, FRAC_PI_2, size.x);
     let row = node_coordinate(theta, PI, size.y);
-    return read_bilinear(view_correction, column, row, size);
+    let kappa = material.view_curvature_per_mm;
+    var layer = 0.0;
+    if layers > 1.0 && kappa.y > kappa.x {
+        layer = clamp((curvature_per_mm - kappa.x) / (kappa.y - kappa.x), 0.0, 1.0)
+            * (layers - 1.0);
+    }
+    let below = floor(layer);
+    let above = min(below + 1.0, layers - 1.0);
+    let a = read_bilinear(view_correction, column, below * size.y + row, texture_size);
+    let b = read_bilinear(view_correction, column, above * size.y + row, texture_size);
+    return mix(a, b, layer - below);
 }
 
 // (cos⁺ ⊛ g_s)(θ) for θ ∈ [0, π]: the clamped cosine blurred by a wrapped Gaussian of angular
@@ -1272,7 +1290,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
                 vec3<f32>(0.0),
             );
             if MODEL != MODEL_LAMBERT {
-                reflected *= view_value(theta, phi);
+                reflected *= view_value(curvature_per_mm, theta, phi);
             }
             radiance += FRAC_1_PI * reflected;
             if material.specular_on != 0u {
@@ -1462,7 +1480,11 @@ fn interreflected_radiance(
     }
     var response = local_value(curvature_per_mm, 1.0, 0.0);
     if MODEL != MODEL_LAMBERT {
-        response *= view_value(0.0, angle(dot(normal, to_camera_from(world_position))));
+        response *= view_value(
+            curvature_per_mm,
+            0.0,
+            angle(dot(normal, to_camera_from(world_position))),
+        );
     }
     return irradiance * FRAC_1_PI * response;
 }

@@ -307,15 +307,18 @@ impl MaterialFactory {
                 self.upload_table(device, queue, "cdrf lut (unused)", 1, 1, &[Vec3::ONE])?
             }
         };
+        let view_layers = view.curvature_axis();
         let view_texture = self.upload_table(
             device,
             queue,
             "cdrf view correction",
             view.phi_count(),
-            view.theta_count(),
+            view.theta_count() * view_layers.count,
             view.values(),
         )?;
         uniforms.view_size = [view.phi_count() as f32, view.theta_count() as f32];
+        uniforms.view_curvature_per_mm = [view_layers.min_per_mm, view_layers.max_per_mm];
+        uniforms.view_layers = view_layers.count as f32;
         let (sphere_texture, gain_texture) = match &subsurface {
             Some(tables) => (
                 self.upload_table(
