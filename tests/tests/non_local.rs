@@ -226,17 +226,17 @@ fn a_thin_slab_glows_from_behind() {
     };
     let dark = render_predictable(&scene(half_height, from_behind, NonLocal::OFF), &assets);
     let glowing = render_predictable(&scene(half_height, from_behind, transmission), &assets);
-    assert_golden(
-        "non_local_slab_from_behind",
-        // The glow is faint (T(4 mm) ≈ 0.02): shown 40× brighter.
-        &srgb8(&glowing, 40.0),
-        TOLERANCE,
-    );
-
     // The centre of the face: radiance E/π · T(d, μ) · g(θ = π, φ = 0).
     let centre = pixel_of(0.0, 0.0, half_height);
     let expected =
         translucency.transmission.evaluate(thickness_mm, 1.0).x * view.sample(0.0, PI, 0.0).x / PI;
+    assert_golden(
+        "non_local_slab_from_behind",
+        // The glow is faint (T(4 mm) ≈ 0.02–0.03 as fitted): shown at 0.2 in the centre (an
+        // exposure of the fit's own T, so the picture does not clip when the fit changes).
+        &srgb8(&glowing, 0.2 / expected),
+        TOLERANCE,
+    );
     let found = mean_red(&glowing, centre, 4);
     println!("slab: {found:.5} with transmission (T(d) says {expected:.5})");
     assert!(

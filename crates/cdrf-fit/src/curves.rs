@@ -15,7 +15,7 @@
 //!   the table interpolates it across curvature like f (LUT format 5's curvature layers). Shared
 //!   by all radii (as until 2026-12-03), it was a compromise that spheres smaller than 15 mm
 //!   pulled away from the large ones: with r = 5–12.5 mm in the fit the r = 35 mm sphere's error
-//!   rose from 0.73 % to 1.08 %. Physically the exitant radiance of a diffusing medium is
+//!   rose from 0.73 % to 1.08 %; per sphere every radius is at 0.66–0.71 %. Physically the exitant radiance of a diffusing medium is
 //!   `Φ/4π + 3/(4π)·F·ω`: the net flux F points into the surface on the lit side and along it
 //!   near the terminator, so grazing views are relatively brighter on the lit side and darker on
 //!   the shadow side — no single g(φ) can do both.

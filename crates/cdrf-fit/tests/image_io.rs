@@ -501,8 +501,8 @@ fn decoding_all_bundled_exrs_one_at_a_time() {
     names.sort();
     assert_eq!(
         names.len(),
-        8,
-        "expected the 8 wax sphere EXRs in {}",
+        12,
+        "expected the 12 wax sphere EXRs in {}",
         dir.display()
     );
     let start = Instant::now();

@@ -286,10 +286,13 @@ fn the_subsurface_gather_lights_the_knot_shadow_side() {
             before.bins[bin]
         );
     }
-    // Bins 90–100° … 130–180°: at least 1.5 × as bright, and past a quarter of the truth.
+    // Bins 90–100° … 130–180°: at least 1.25 × as bright, and past a third of the truth
+    // (measured at 128 px with the twelve-sphere table: 0.52 / 0.33 / 0.19 / 0.30 → 0.69 / 0.53 /
+    // 0.36 / 0.44; with the eight spheres of 15–50 mm T(d, μ) brought less, and the gain was
+    // above 1.5 ×).
     for bin in 4..8 {
         assert!(
-            after.bins[bin] > 1.5 * before.bins[bin] && after.bins[bin] > 0.25,
+            after.bins[bin] > 1.25 * before.bins[bin] && after.bins[bin] > 1.0 / 3.0,
             "shadow-side bin {bin}: {} (before {})",
             after.bins[bin],
             before.bins[bin]
