@@ -42,6 +42,7 @@ pub mod light;
 pub mod lut;
 pub mod lut_file;
 pub mod mesh;
+pub mod patches;
 pub mod scene;
 pub mod specular;
 pub mod translucency;

@@ -160,17 +160,17 @@ fn main() -> Result<(), Box<dyn Error>> {
                 engine_lights: false,
             },
             Variant {
-                name: "measured + all (inter-refl. 16²)",
+                name: "measured + all (256 patches)",
                 material: Material::Measured(lut.clone()),
                 options: fast,
                 non_local: NonLocal::ALL,
                 engine_lights: false,
             },
             Variant {
-                name: "measured + all (inter-refl. 32²)",
+                name: "measured + all (512 patches)",
                 material: Material::Measured(lut.clone()),
                 options: Options {
-                    interreflection_resolution: 32,
+                    interreflection_patches: 512,
                     ..fast
                 },
                 non_local: NonLocal::ALL,
@@ -349,13 +349,13 @@ fn main() -> Result<(), Box<dyn Error>> {
             ),
             (
                 "all (16²) / measured",
-                "measured + all (inter-refl. 16²)",
+                "measured + all (256 patches)",
                 "measured",
                 " (goal ≤ 1.5)",
             ),
             (
                 "all (32²) / measured",
-                "measured + all (inter-refl. 32²)",
+                "measured + all (512 patches)",
                 "measured",
                 "",
             ),

@@ -14,9 +14,10 @@
 //   0: frame    camera, lights
 //   1: material LUT, view correction, model parameters
 //   2: draw     model transform and surface factors (dynamic offset), the surface's base
-//               colour, normal and roughness textures and their samplers
-//   3: shadows  per-light light-space transforms, shadow maps (first-surface depth) and surfel
-//               maps (the lit first surface, for the inter-reflection)
+//               colour, normal and roughness textures and their samplers; in the compute
+//               passes the mesh's vertices, patches, the terms and the frame's emitters
+//   3: shadows  per-light light-space transforms, shadow maps (first-surface depth) and the
+//               subsurface pyramids (the light entering the lit surface)
 //
 // The shading model, the LUT filtering and the non-local terms are pipeline-overridable
 // constants, so each pipeline compiles to one straight-line shader.
@@ -39,24 +40,28 @@
 // Per light: f → V·f (shadows) + T_occluded + T_thin (transmission), all times g(θ, φ). The
 // terms are evaluated per vertex and interpolated (they vary over σ); Lambert's, per pixel.
 //
-// Both gathers below read maps rendered from each face of each shadowed light (vs_surfel): a
-// texel's "light area" A (texel_light_area) is what the light sees of it per unit of the
-// light's irradiance_or_intensity — the texel's side² for an orthographic map, its solid angle
-// (times a spot's falloff) for a perspective one, since the flux through a solid angle ω is
-// intensity · ω — so the flux entering the surface in the texel is that light value times A,
-// and both gathers return their sums per unit of it (fs_main multiplies).
+// The subsurface gather below reads maps rendered from each face of each shadowed light
+// (vs_light_view): a texel's "light area" A (texel_light_area) is what the light sees of it per
+// unit of the light's irradiance_or_intensity — the texel's side² for an orthographic map, its
+// solid angle (times a spot's falloff) for a perspective one, since the flux through a solid
+// angle ω is intensity · ω — so the flux entering the surface in the texel is that light value
+// times A, and the gather returns its sum per unit of it (fs_main multiplies).
 //
-// Inter-reflection (INTERREFLECTION): one bounce of light that left the lit surface and enters
-// another part of the object through the air (reflective shadow maps, Dachsbacher & Stamminger
-// 2005). The surfel pass (vs_surfel / fs_surfel) renders each face's first surface into a small
-// map (Options::interreflection_resolution, one sample per texel: averaging samples across a
-// silhouette put phantom emitters in the air between two strands): per texel the flux the
-// surface sends out, Φ = f(κ, θ)/cos θ · A (the table's exitance over the surface the texel
-// covers), its normal (octahedral) and its position. Each vertex sums every texel as a
-// Lambertian emitter, E = Σ Φ·cos θ_q·cos θ_p / (π d²) (d clamped to the texel's width: a
-// texel is not a point), with no visibility test, and reflects it as light along its normal:
-// E/π · f(κ, 0) · g(0, φ). On a convex surface no emitter lies in front of a point, so the
-// term is zero there.
+// Inter-reflection (INTERREFLECTION): light that left one part of the object — its lit side or
+// the glow past its terminator — and enters another through the air, bounce after bounce (a
+// radiosity between surface patches; cdrf-core's patches module cuts each mesh into them once).
+// Four compute passes, after the light maps: cs_vertex_terms also writes each vertex's exitance
+// M (Σ over the lights of what fs_main's light_share gives, before the view correction: the
+// light leaving the point, as if evenly); cs_patch_emitters averages M over each patch into the
+// frame's emitters (world mm: centroid, normal, area, sagitta); cs_emitter_bounce adds to each
+// emitter what the others send it, Options::interreflection_bounces − 1 times; and
+// cs_vertex_interreflection gathers the emitters at every vertex. An emitter e lights a point as
+// a Lambertian disc of its area A and exitance M (exact on its axis, 1/d² far away),
+// E⊥ = M · A · cos θ_e / (π d² + A), cos θ_e measured above e's plane less its sagitta (a convex
+// patch does not light its own surface), with no visibility test; the point answers with its
+// CDRF as to a small light in e's direction: E⊥/π · f(κ(ω), θ_ω) · g(θ_ω, φ), θ_ω past 90°
+// included (light entering the point's part beside it). On a convex object no emitter lies in
+// front of another's surface: the term is zero there.
 //
 // Subsurface gather (SUBSURFACE; see cdrf-core's diffusion::FarField). The light that entered
 // the lit surface near a point — beside it, behind it, through an occluder — leaves it by the
@@ -111,9 +116,6 @@ override SHADOWS: bool = false;
 override TRANSMISSION: bool = false;
 override INTERREFLECTION: bool = false;
 override SUBSURFACE: bool = false;
-// The surfel pass divides the table's f(κ, θ) by cos θ (texel area → surface area), at least
-// this much: a texel at the silhouette covers a long strip of surface its 4 samples only guess.
-const SURFEL_MIN_COSINE: f32 = 0.25;
 
 struct Light {
     // LIGHT_DIRECTIONAL: unit vector toward the light, world space; LIGHT_POINT, LIGHT_SPOT:
@@ -197,6 +199,9 @@ struct Material {
     // each, stacked down the texture; one layer: the same at every curvature).
     view_curvature_per_mm: vec2<f32>,
     view_layers: f32,
+    // The subsurface gather's cut ℓ_c, mm: the reach of the table's near field it leaves to
+    // the table (and the penumbra's width with the gather).
+    subsurface_cut_mm: f32,
     // Tap k lies at radius 2σ_max·√(k / PENUMBRA_TAPS).
     penumbra_taps: array<PenumbraTap, PENUMBRA_TAPS>,
     // The subsurface gather's R_far(d) per channel (mm⁻², xyz) at
@@ -237,8 +242,6 @@ struct Shadows {
     resolution: u32,
     // Lights with a map (the first ones of the frame).
     light_count: u32,
-    // Surfel map texels per side (the same square as the shadow map).
-    surfel_resolution: u32,
     // The subsurface pyramid's level 0, texels per side (a power of two), and its levels
     // (the last one 8 × 8).
     subsurface_resolution: u32,
@@ -264,21 +267,52 @@ struct Shadows {
 @group(2) @binding(6) var roughness_sampler: sampler;
 @group(3) @binding(0) var<uniform> shadows: Shadows;
 @group(3) @binding(1) var shadow_maps: texture_depth_2d_array;
-// Surfel maps, one layer per face of each shadowed light: flux Φ (rgb, per unit of the light's
-// irradiance_or_intensity; 0 where no surface) and position in the light's frame, mm (xyz),
-// with the normal in that frame octahedral-encoded in their a channels.
-@group(3) @binding(2) var surfel_exitance: texture_2d_array<f32>;
-@group(3) @binding(3) var surfel_position: texture_2d_array<f32>;
 // The subsurface pyramid: per texel Φ·(position in the light's frame, mm) and Φ (per unit of
 // the light's irradiance_or_intensity), summed over the level-0 texels it covers; one layer
 // per face of each shadowed light.
-@group(3) @binding(4) var subsurface_pyramid: texture_2d_array<f32>;
+@group(3) @binding(2) var subsurface_pyramid: texture_2d_array<f32>;
 
 // The vertex terms pass (cs_vertex_terms): the draw's mesh vertices as the vertex buffer holds
 // them (VERTEX_FLOATS f32s each: position at VERTEX_POSITION, normal at VERTEX_NORMAL,
 // curvature at VERTEX_CURVATURE) and the terms it writes for each of them.
 @group(2) @binding(7) var<storage, read> terms_mesh_vertices: array<f32>;
 @group(2) @binding(8) var<storage, read_write> terms_out: array<VertexTerms>;
+// The inter-reflection's passes (see the header): the draw's mesh's patches and their
+// vertices, and the frame's emitters (every emitting draw's patches), read and written.
+@group(2) @binding(9) var<storage, read> patches: array<Patch>;
+@group(2) @binding(10) var<storage, read> patch_members: array<PatchMember>;
+@group(2) @binding(11) var<storage, read> emitters: array<Emitter>;
+@group(2) @binding(12) var<storage, read_write> emitters_out: array<Emitter>;
+
+// One patch of a mesh (cdrf-core's patches::SurfacePatch), model units.
+struct Patch {
+    centroid: vec3<f32>,
+    area: f32,
+    normal: vec3<f32>,
+    sagitta: f32,
+    curvature_per_mm: f32,
+    first_member: u32,
+    member_count: u32,
+}
+
+// One vertex of a patch and its share of the patch's area.
+struct PatchMember {
+    vertex: u32,
+    weight: f32,
+}
+
+// One patch of an emitting draw as the frame places it: world position and sizes in mm, unit
+// world normal, the mean curvature (mm⁻¹) it receives light with, its own exitance M (π·L,
+// per unit of irradiance: the light's) and M with the bounces gathered so far.
+struct Emitter {
+    position_mm: vec3<f32>,
+    area_mm2: f32,
+    normal: vec3<f32>,
+    sagitta_mm: f32,
+    direct: vec3<f32>,
+    curvature_per_mm: f32,
+    exitance: vec3<f32>,
+}
 
 struct VertexIn {
     @location(0) position: vec3<f32>,
@@ -293,7 +327,8 @@ struct VertexIn {
 
 // A vertex's non-local terms (see vs_main_terms), written by cs_vertex_terms once per vertex
 // and frame: visibility (xyz) and transmission or gather (xyz, π·L/E) of the shadowed lights
-// 0–3, and the inter-reflected radiance (xyz). w unused.
+// 0–3, the inter-reflected radiance (xyz; cs_vertex_interreflection) and the vertex's exitance
+// (xyz, the inter-reflection's source; not read by the shading pass). w unused.
 struct VertexTerms {
     visibility_0: vec4<f32>,
     transmission_0: vec4<f32>,
@@ -304,6 +339,7 @@ struct VertexTerms {
     visibility_3: vec4<f32>,
     transmission_3: vec4<f32>,
     radiance: vec4<f32>,
+    exitance: vec4<f32>,
 }
 
 // The same, read back as a second vertex buffer by the shading pass (locations 5–13).
@@ -492,73 +528,238 @@ fn light_curvature_per_mm(in: VertexOut, index: u32) -> f32 {
     }
 }
 
-// The vertex terms pass: the non-local terms of every vertex of the draw's mesh, once. A 2D
-// grid of 64-wide groups (a dimension holds at most 65 535 groups); vertex i = the invocation's
-// index along the grid's rows.
-@compute @workgroup_size(64)
-fn cs_vertex_terms(
-    @builtin(global_invocation_id) id: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
-) {
-    let i = id.x + id.y * groups.x * 64u;
-    if i >= arrayLength(&terms_out) {
-        return;
-    }
+// The compute passes' invocation index: a 2D grid of 64-wide groups (a dimension holds at
+// most 65 535 groups), the index running along the grid's rows.
+fn invocation_index(id: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return id.x + id.y * groups.x * 64u;
+}
+
+// A vertex of the draw's mesh, as the compute passes read it: world position, unit world
+// normal, curvature and its anisotropy (mm⁻¹, world frame).
+struct MeshVertex {
+    world_position: vec3<f32>,
+    normal: vec3<f32>,
+    curvature_per_mm: f32,
+    anisotropy: vec3<f32>,
+}
+
+fn mesh_vertex(i: u32) -> MeshVertex {
     let base = i * VERTEX_FLOATS;
+    var v: MeshVertex;
     let position = vec3<f32>(
         terms_mesh_vertices[base + VERTEX_POSITION],
         terms_mesh_vertices[base + VERTEX_POSITION + 1u],
         terms_mesh_vertices[base + VERTEX_POSITION + 2u],
     );
-    let model_normal = vec3<f32>(
+    let world = draw.world_from_model * vec4<f32>(position, 1.0);
+    v.world_position = world.xyz / world.w;
+    v.normal = normalize(world_normal_of(vec3<f32>(
         terms_mesh_vertices[base + VERTEX_NORMAL],
         terms_mesh_vertices[base + VERTEX_NORMAL + 1u],
         terms_mesh_vertices[base + VERTEX_NORMAL + 2u],
-    );
-    let world = draw.world_from_model * vec4<f32>(position, 1.0);
-    let world_position = world.xyz / world.w;
-    let normal = normalize(world_normal_of(model_normal));
-    let curvature_per_mm = terms_mesh_vertices[base + VERTEX_CURVATURE] * draw.curvature_scale;
+    )));
+    v.curvature_per_mm = terms_mesh_vertices[base + VERTEX_CURVATURE] * draw.curvature_scale;
+    v.anisotropy = world_anisotropy_of(vec3<f32>(
+        terms_mesh_vertices[base + VERTEX_ANISOTROPY],
+        terms_mesh_vertices[base + VERTEX_ANISOTROPY + 1u],
+        terms_mesh_vertices[base + VERTEX_ANISOTROPY + 2u],
+    ));
+    return v;
+}
+
+// The vertex terms pass: the non-local terms of every vertex of the draw's mesh, once, and
+// with the inter-reflection its exitance (see the header).
+@compute @workgroup_size(64)
+fn cs_vertex_terms(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let i = invocation_index(id, groups);
+    if i >= arrayLength(&terms_out) {
+        return;
+    }
+    let v = mesh_vertex(i);
     // (The shadow test's local shape keeps the mean curvature: read at the curvature along
     // the light, a saddle's switch between sphere and tangent plane painted jagged lines of
     // visibility along the torus's shadow side.)
-
-    var terms: VertexTerms;
-    terms.visibility_0 = vec4<f32>(1.0);
-    terms.visibility_1 = vec4<f32>(1.0);
-    terms.visibility_2 = vec4<f32>(1.0);
-    terms.visibility_3 = vec4<f32>(1.0);
-    if INTERREFLECTION && MODEL != MODEL_CURVATURE {
-        terms.radiance = vec4<f32>(
-            interreflected_radiance(world_position, normal, curvature_per_mm),
-            0.0,
-        );
+    var lights: array<NonLocalTerms, MAX_SHADOW_LIGHTS>;
+    for (var k = 0u; k < MAX_SHADOW_LIGHTS; k++) {
+        lights[k].visibility = vec3<f32>(1.0);
+        lights[k].transmission = vec3<f32>(0.0);
     }
-    if (SHADOWS || TRANSMISSION || SUBSURFACE) && MODEL != MODEL_LAMBERT
-        && MODEL != MODEL_CURVATURE {
-        let count = min(shadows.light_count, frame.light_count);
-        if count > 0u {
-            let light = vertex_non_local(0u, world_position, normal, curvature_per_mm);
-            terms.visibility_0 = vec4<f32>(light.visibility, 1.0);
-            terms.transmission_0 = vec4<f32>(light.transmission, 0.0);
+    let count = min(shadows.light_count, frame.light_count);
+    if (SHADOWS || TRANSMISSION || SUBSURFACE) && MODEL != MODEL_CURVATURE {
+        for (var k = 0u; k < count; k++) {
+            if MODEL == MODEL_LAMBERT {
+                // Lambert's terms are the shading pass's, per pixel; the exitance needs them here.
+                if INTERREFLECTION && SHADOWS {
+                    lights[k] = non_local_terms(k, v.world_position, v.normal, v.curvature_per_mm);
+                }
+            } else {
+                lights[k] = vertex_non_local(k, v.world_position, v.normal, v.curvature_per_mm);
+            }
         }
-        if count > 1u {
-            let light = vertex_non_local(1u, world_position, normal, curvature_per_mm);
-            terms.visibility_1 = vec4<f32>(light.visibility, 1.0);
-            terms.transmission_1 = vec4<f32>(light.transmission, 0.0);
+    }
+    var terms: VertexTerms;
+    terms.visibility_0 = vec4<f32>(lights[0].visibility, 1.0);
+    terms.transmission_0 = vec4<f32>(lights[0].transmission, 0.0);
+    terms.visibility_1 = vec4<f32>(lights[1].visibility, 1.0);
+    terms.transmission_1 = vec4<f32>(lights[1].transmission, 0.0);
+    terms.visibility_2 = vec4<f32>(lights[2].visibility, 1.0);
+    terms.transmission_2 = vec4<f32>(lights[2].transmission, 0.0);
+    terms.visibility_3 = vec4<f32>(lights[3].visibility, 1.0);
+    terms.transmission_3 = vec4<f32>(lights[3].transmission, 0.0);
+    if INTERREFLECTION && MODEL != MODEL_CURVATURE {
+        let curvatures = light_curvatures_per_mm(
+            v.world_position,
+            v.normal,
+            v.curvature_per_mm,
+            v.anisotropy,
+        );
+        var exitance = vec3<f32>(0.0);
+        for (var k = 0u; k < min(frame.light_count, MAX_LIGHTS); k++) {
+            let incidence = light_incidence(frame.lights[k], v.world_position);
+            let cos_theta = dot(v.normal, incidence.to_light);
+            var curvature_per_mm = v.curvature_per_mm;
+            var light_terms: NonLocalTerms;
+            light_terms.visibility = vec3<f32>(1.0);
+            light_terms.transmission = vec3<f32>(0.0);
+            if k < 4u {
+                curvature_per_mm = curvatures[k];
+            }
+            if k < MAX_SHADOW_LIGHTS {
+                light_terms = lights[k];
+            }
+            exitance += light_share(
+                k,
+                incidence,
+                cos_theta,
+                angle(cos_theta),
+                curvature_per_mm,
+                light_terms,
+            ).reflected;
         }
-        if count > 2u {
-            let light = vertex_non_local(2u, world_position, normal, curvature_per_mm);
-            terms.visibility_2 = vec4<f32>(light.visibility, 1.0);
-            terms.transmission_2 = vec4<f32>(light.transmission, 0.0);
-        }
-        if count > 3u {
-            let light = vertex_non_local(3u, world_position, normal, curvature_per_mm);
-            terms.visibility_3 = vec4<f32>(light.visibility, 1.0);
-            terms.transmission_3 = vec4<f32>(light.transmission, 0.0);
-        }
+        terms.exitance = vec4<f32>(exitance, 0.0);
     }
     terms_out[i] = terms;
+}
+
+// Each patch of the draw's mesh as an emitter of the frame (at draw.emitter_first + patch):
+// placed by the draw's transform, its exitance its vertices' area-weighted mean.
+@compute @workgroup_size(64)
+fn cs_patch_emitters(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let i = invocation_index(id, groups);
+    if i >= arrayLength(&patches) {
+        return;
+    }
+    let surface_patch = patches[i];
+    var direct = vec3<f32>(0.0);
+    for (var m = 0u; m < surface_patch.member_count; m++) {
+        let member = patch_members[surface_patch.first_member + m];
+        direct += member.weight * terms_out[member.vertex].exitance.xyz;
+    }
+    // Model units → mm: the transform's scale (1 / curvature_scale), then the frame's unit.
+    let mm_per_model_unit = frame.mm_per_world_unit / draw.curvature_scale;
+    let world = draw.world_from_model * vec4<f32>(surface_patch.centroid, 1.0);
+    var e: Emitter;
+    e.position_mm = world.xyz / world.w * frame.mm_per_world_unit;
+    e.normal = normalize(world_normal_of(surface_patch.normal));
+    e.area_mm2 = surface_patch.area * mm_per_model_unit * mm_per_model_unit;
+    e.sagitta_mm = surface_patch.sagitta * mm_per_model_unit;
+    e.curvature_per_mm = surface_patch.curvature_per_mm * draw.curvature_scale;
+    e.direct = direct;
+    e.exitance = direct;
+    emitters_out[draw.emitter_first + i] = e;
+}
+
+// One bounce: each emitter of the draw's patches gathers what every other emitter sends it
+// and sends out its own light plus that (its receiving part answers as at its mean curvature).
+@compute @workgroup_size(64)
+fn cs_emitter_bounce(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let i = invocation_index(id, groups);
+    if i >= arrayLength(&patches) {
+        return;
+    }
+    let k = draw.emitter_first + i;
+    var e = emitters[k];
+    var receiver: Receiver;
+    receiver.position_mm = e.position_mm;
+    receiver.normal = e.normal;
+    receiver.curvature_per_mm = e.curvature_per_mm;
+    receiver.anisotropy = vec3<f32>(0.0);
+    e.exitance = e.direct + gathered_light(receiver, k, -1.0);
+    emitters_out[k] = e;
+}
+
+// The inter-reflected radiance at every vertex of the draw's mesh, gathered from the frame's
+// emitters after their bounces (added to what cs_vertex_terms wrote).
+@compute @workgroup_size(64)
+fn cs_vertex_interreflection(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let i = invocation_index(id, groups);
+    if i >= arrayLength(&terms_out) {
+        return;
+    }
+    let v = mesh_vertex(i);
+    var receiver: Receiver;
+    receiver.position_mm = v.world_position * frame.mm_per_world_unit;
+    receiver.normal = v.normal;
+    receiver.curvature_per_mm = v.curvature_per_mm;
+    receiver.anisotropy = v.anisotropy;
+    let phi = angle(dot(v.normal, to_camera_from(v.world_position)));
+    let light = gathered_light(receiver, arrayLength(&emitters), phi);
+    terms_out[i].radiance += vec4<f32>(FRAC_1_PI * light, 0.0);
+}
+
+// A point receiving the inter-reflection: position (mm), unit normal, curvature and its
+// anisotropy (mm⁻¹).
+struct Receiver {
+    position_mm: vec3<f32>,
+    normal: vec3<f32>,
+    curvature_per_mm: f32,
+    anisotropy: vec3<f32>,
+}
+
+// Σ over the frame's emitters but `skip` of the light each gives the receiver (see the header),
+// π·L/E times the irradiance facing the emitter: f(κ(ω), θ_ω) · E⊥, and with phi ≥ 0 (the
+// angle between the normal and the camera) times the view correction g(θ_ω, φ).
+fn gathered_light(receiver: Receiver, skip: u32, phi: f32) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    let count = arrayLength(&emitters);
+    for (var k = 0u; k < count; k++) {
+        let e = emitters[k];
+        let from_emitter = receiver.position_mm - e.position_mm;
+        let height = dot(e.normal, from_emitter) - e.sagitta_mm;
+        if k == skip || height <= 0.0 || !(e.area_mm2 > 0.0) {
+            continue;
+        }
+        let d2 = dot(from_emitter, from_emitter);
+        let d = sqrt(d2);
+        let facing = e.exitance * (e.area_mm2 * height / d / (PI * d2 + e.area_mm2));
+        let to_emitter = -from_emitter / d;
+        let cos_theta = dot(receiver.normal, to_emitter);
+        let theta = angle(cos_theta);
+        let curvature_per_mm = directional_curvature(
+            receiver.curvature_per_mm,
+            receiver.anisotropy,
+            receiver.normal,
+            to_emitter,
+        );
+        var response = local_value(curvature_per_mm, cos_theta, theta);
+        if phi >= 0.0 && MODEL != MODEL_LAMBERT {
+            response *= view_value(curvature_per_mm, theta, phi);
+        }
+        sum += facing * response;
+    }
+    return sum;
 }
 
 // Whether this material's subsurface gather is on (a diffusion profile, and the pipeline's).
@@ -582,7 +783,12 @@ fn vertex_non_local(
         terms = non_local_terms(index, world_position, normal, curvature_per_mm);
     }
     if gathers_subsurface() {
-        terms.transmission = subsurface_gather(index, light_frame_point(index, world_position));
+        let shape = local_shape(
+            light_frame_point(index, world_position),
+            light_frame_vector(index, normal),
+            curvature_per_mm,
+        );
+        terms.transmission = subsurface_gather(index, shape);
     }
     return terms;
 }
@@ -1099,9 +1305,17 @@ fn non_local_terms(
     let sigma = material.scattering_length_mm;
     let sigma_max = max(sigma.x, max(sigma.y, sigma.z));
     // T(d, μ), unless the subsurface gather brings that light instead (vertex_non_local).
-    let transmits = TRANSMISSION && !gathers_subsurface();
+    let gathers = gathers_subsurface();
+    let transmits = TRANSMISSION && !gathers;
+    // The penumbra's width: the light the CDRF spreads under a shadow's edge reaches about σ;
+    // with the subsurface gather the table keeps only its near field, which reaches about the
+    // cut ℓ_c (the gather brings the rest from the lit surface that is there).
+    var penumbra_mm = sigma_max;
+    if gathers {
+        penumbra_mm = material.subsurface_cut_mm;
+    }
     var taps = 1u;
-    if sigma_max > texel_mm {
+    if penumbra_mm > texel_mm {
         taps = PENUMBRA_TAPS;
     }
     // The same spiral at every point (no per-point rotation) and every tap read: the result
@@ -1120,7 +1334,7 @@ fn non_local_terms(
     // Every tap is read: skipping the rest where a few probes agree made neighbouring vertices
     // jump between "fully lit / occluded" and the full average (hard, jagged shadow edges).
     for (var k = 0u; k < taps; k++) {
-        let tap = spiral_tap(shape, k, 2.0 * sigma_max);
+        let tap = spiral_tap(shape, k, 2.0 * penumbra_mm);
         let ray = light_ray(index, tap.surface);
         let tap_depth = light_depth(index, tap.surface);
         let expected = expected_first_surface(shape, tap, tap_depth, dot(tap.facing, ray));
@@ -1132,10 +1346,16 @@ fn non_local_terms(
         if k > 0u && expected > -1e29 && occluder > expected + tolerance {
             continue;
         }
-        // Gaussian weight of the tap per channel (σ per channel), precomputed per material.
+        // Gaussian weight of the tap per channel (σ per channel), precomputed per material;
+        // with the gather, one width for every channel: the taps reach 2ℓ_c, so tap k's weight
+        // is exp(−2k / PENUMBRA_TAPS).
         var weight = vec3<f32>(1.0);
         if taps > 1u {
-            weight = material.penumbra_taps[k].weight;
+            if gathers {
+                weight = vec3<f32>(exp(-2.0 * f32(k) / f32(PENUMBRA_TAPS)));
+            } else {
+                weight = material.penumbra_taps[k].weight;
+            }
         }
         weights += weight;
         counted += 1u;
@@ -1252,49 +1472,24 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
             let cos_theta = dot(normal, incidence.to_light);
             let theta = angle(cos_theta);
             let curvature_per_mm = light_curvature_per_mm(in, i);
-            var f = local_value(curvature_per_mm, cos_theta, theta);
-            var visibility = vec3<f32>(1.0);
-            // The light through material the table does not see: T(d, μ) in π·L/E (times the
-            // irradiance here), or the gather's G (times the light's irradiance or intensity:
-            // the light entered elsewhere, where the irradiance is not this point's).
-            var through = vec3<f32>(0.0);
-            var through_scale = incidence.irradiance;
+            var terms: NonLocalTerms;
+            terms.visibility = vec3<f32>(1.0);
+            terms.transmission = vec3<f32>(0.0);
             if (SHADOWS || TRANSMISSION || SUBSURFACE) && i < shadows.light_count {
-                var terms: NonLocalTerms;
                 if MODEL == MODEL_LAMBERT {
                     terms = non_local_terms(i, in.world_position, normal, in.curvature_per_mm);
                 } else {
                     terms = vertex_terms(in, i);
                 }
-                if gathers_subsurface() {
-                    through_scale = frame.lights[i].irradiance_or_intensity;
-                    // The far field the table holds through the osculating sphere: the gather
-                    // brings it from the surface that is there.
-                    f -= subsurface_sphere_value(curvature_per_mm, theta);
-                    if SHADOWS {
-                        // Where the point is in shadow, the gathered light is what the table's
-                        // shadow side is made of: scaled as the sphere's is.
-                        let gain = subsurface_gain_value(curvature_per_mm, theta);
-                        let v = terms.visibility;
-                        terms.transmission *= v + (vec3<f32>(1.0) - v) * gain;
-                    }
-                }
-                if SHADOWS {
-                    f *= terms.visibility;
-                    visibility = terms.visibility;
-                }
-                through = terms.transmission;
             }
-            var reflected = max(
-                incidence.irradiance * f + through_scale * through,
-                vec3<f32>(0.0),
-            );
+            let share = light_share(i, incidence, cos_theta, theta, curvature_per_mm, terms);
+            var reflected = share.reflected;
             if MODEL != MODEL_LAMBERT {
                 reflected *= view_value(curvature_per_mm, theta, phi);
             }
             radiance += FRAC_1_PI * reflected;
             if material.specular_on != 0u {
-                specular += incidence.irradiance * visibility
+                specular += incidence.irradiance * share.visibility
                     * specular_radiance(normal, incidence.to_light, to_camera, alpha);
             }
         }
@@ -1306,6 +1501,56 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         radiance = linear_to_srgb(radiance);
     }
     return vec4<f32>(radiance, 1.0);
+}
+
+// What light `index` gives a point, before the view correction: π·L/E times the light (the
+// exitance the point would have if the light left it evenly), and the share V of it the
+// shadows let through (1 without). `terms`: the light's non-local terms at the point
+// (visibility 1 and no transmission where it has none).
+struct LightShare {
+    reflected: vec3<f32>,
+    visibility: vec3<f32>,
+}
+
+fn light_share(
+    index: u32,
+    incidence: Incidence,
+    cos_theta: f32,
+    theta: f32,
+    curvature_per_mm: f32,
+    terms_in: NonLocalTerms,
+) -> LightShare {
+    var f = local_value(curvature_per_mm, cos_theta, theta);
+    var share: LightShare;
+    share.visibility = vec3<f32>(1.0);
+    // The light through material the table does not see: T(d, μ) in π·L/E (times the
+    // irradiance here), or the gather's G (times the light's irradiance or intensity: the
+    // light entered elsewhere, where the irradiance is not this point's).
+    var through = vec3<f32>(0.0);
+    var through_scale = incidence.irradiance;
+    if (SHADOWS || TRANSMISSION || SUBSURFACE) && index < shadows.light_count {
+        var terms = terms_in;
+        if gathers_subsurface() {
+            through_scale = frame.lights[index].irradiance_or_intensity;
+            // The far field the table holds through the osculating sphere: the gather brings
+            // it from the surface that is there.
+            f -= subsurface_sphere_value(curvature_per_mm, theta);
+            if SHADOWS {
+                // Where the point is in shadow, the gathered light is what the table's shadow
+                // side is made of: scaled as the sphere's is.
+                let gain = subsurface_gain_value(curvature_per_mm, theta);
+                let v = terms.visibility;
+                terms.transmission *= v + (vec3<f32>(1.0) - v) * gain;
+            }
+        }
+        if SHADOWS {
+            f *= terms.visibility;
+            share.visibility = terms.visibility;
+        }
+        through = terms.transmission;
+    }
+    share.reflected = max(incidence.irradiance * f + through_scale * through, vec3<f32>(0.0));
+    return share;
 }
 
 // The environment light (cdrf-core's environment::radiance_sh): Σ_l a_l(κ) Σ_m L_lm Y_lm(n),
@@ -1462,77 +1707,6 @@ fn to_camera_from(world_position: vec3<f32>) -> vec3<f32> {
     return frame.to_camera;
 }
 
-// See the header: one bounce from the surfel maps of the shadowed lights, reflected as light
-// along the normal.
-fn interreflected_radiance(
-    world_position: vec3<f32>,
-    normal: vec3<f32>,
-    curvature_per_mm: f32,
-) -> vec3<f32> {
-    let count = min(shadows.light_count, min(frame.light_count, MAX_SHADOW_LIGHTS));
-    var irradiance = vec3<f32>(0.0);
-    for (var i = 0u; i < count; i++) {
-        irradiance += frame.lights[i].irradiance_or_intensity * surfel_irradiance(
-            i,
-            light_frame_point(i, world_position),
-            light_frame_vector(i, normal),
-        );
-    }
-    var response = local_value(curvature_per_mm, 1.0, 0.0);
-    if MODEL != MODEL_LAMBERT {
-        response *= view_value(
-            curvature_per_mm,
-            0.0,
-            angle(dot(normal, to_camera_from(world_position))),
-        );
-    }
-    return irradiance * FRAC_1_PI * response;
-}
-
-// Irradiance at frame point p (mm) with normal n from the surfel maps of light `index` (one per
-// face), per unit of the light's irradiance_or_intensity: every covered texel as a Lambertian
-// emitter of its flux, the distance clamped to the texel's width there.
-fn surfel_irradiance(index: u32, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let light = &shadows.lights[index];
-    let size = i32(shadows.surfel_resolution);
-    // A texel's width (texel_width_of, taken out of the loop): fixed across an orthographic
-    // map; on a perspective one, its width 1 mm from the light times the emitter's distance.
-    let perspective = (*light).projection != SHADOW_ORTHOGRAPHIC;
-    let texel_width = texel_width_of(index, vec3<f32>(0.0, 0.0, 1.0), shadows.surfel_resolution);
-    var sum = vec3<f32>(0.0);
-    for (var face = 0u; face < (*light).face_count; face++) {
-        let layer = i32((*light).first_layer + face);
-        for (var y = 0; y < size; y++) {
-            for (var x = 0; x < size; x++) {
-                let texel = vec2<i32>(x, y);
-                let flux = textureLoad(surfel_exitance, texel, layer, 0);
-                if all(flux.rgb <= vec3<f32>(0.0)) {
-                    continue;
-                }
-                let position = textureLoad(surfel_position, texel, layer, 0);
-                let from_emitter = p - position.xyz;
-                let receiver = -dot(n, from_emitter);
-                if receiver <= 0.0 {
-                    continue;
-                }
-                let emitter_normal = octahedral_decode(vec2<f32>(flux.a, position.a));
-                let emitter = dot(emitter_normal, from_emitter);
-                if emitter <= 0.0 {
-                    continue;
-                }
-                // cos θ_p · cos θ_q = receiver · emitter / d², then / d² clamped.
-                let d2 = dot(from_emitter, from_emitter);
-                var width = texel_width;
-                if perspective {
-                    width *= length(position.xyz);
-                }
-                sum += flux.rgb * (receiver * emitter / (d2 * max(d2, width * width)));
-            }
-        }
-    }
-    return sum * FRAC_1_PI;
-}
-
 // F_sphere(κ, θ) on the LUT's axes (as lut_value).
 fn subsurface_sphere_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
     let at = lut_coordinates(curvature_per_mm, theta);
@@ -1568,7 +1742,8 @@ fn level_share(rho: f32) -> f32 {
 
 // G at frame point p (mm) from the pyramids of light `index` (one per face), per unit of the
 // light's irradiance_or_intensity (see the header).
-fn subsurface_gather(index: u32, p: vec3<f32>) -> vec3<f32> {
+fn subsurface_gather(index: u32, shape: LocalShape) -> vec3<f32> {
+    let p = shape.point;
     var sum = vec3<f32>(0.0);
     if shadows.subsurface_levels == 0u {
         return sum;
@@ -1582,20 +1757,31 @@ fn subsurface_gather(index: u32, p: vec3<f32>) -> vec3<f32> {
         if in_front {
             uv = face_uv(index, local);
         }
-        sum += subsurface_gather_face(i32((*light).first_layer + face), p, uv, in_front);
+        sum += subsurface_gather_face(index, face, shape, uv, in_front);
     }
     return sum;
 }
 
-// One face's pyramid (layer `layer`), the point p at map coordinates `uv` (`near`: false when
-// it has none, and all the light counts as far): level L weighs its texel at ρ (its texels)
-// from the point by level_share(ρ) − level_share(2ρ) (level 0: level_share(ρ); the coarsest:
-// 1 − level_share(2ρ)), which sum to 1 at every distance.
-fn subsurface_gather_face(layer: i32, p: vec3<f32>, uv: vec2<f32>, near: bool) -> vec3<f32> {
+// One face's pyramid (face `face` of light `index`), the point (its local shape) at map
+// coordinates `uv` (`near`: false when it has none, and all the light counts as far): level L
+// weighs its texel at ρ (its texels) from the point by level_share(ρ) − level_share(2ρ)
+// (level 0: level_share(ρ); the coarsest: 1 − level_share(2ρ)), which sum to 1 at every
+// distance; and each texel by the share of its light that reaches the point through the
+// medium (through_medium).
+fn subsurface_gather_face(
+    index: u32,
+    face: u32,
+    shape: LocalShape,
+    uv: vec2<f32>,
+    near: bool,
+) -> vec3<f32> {
+    let layer = i32(shadows.lights[index].first_layer + face);
+    let p = shape.point;
     let levels = shadows.subsurface_levels;
     var sum = vec3<f32>(0.0);
     for (var level = 0u; level < levels; level++) {
         let size = i32(shadows.subsurface_resolution >> level);
+        let resolution = shadows.subsurface_resolution >> level;
         let centre = uv * f32(size);
         let coarsest = level + 1u == levels;
         var first = vec2<i32>(floor(centre - 2.0 * SUBSURFACE_LEVEL_REACH));
@@ -1632,6 +1818,8 @@ fn subsurface_gather_face(layer: i32, p: vec3<f32>, uv: vec2<f32>, near: bool) -
                 }
                 // The texel's flux at its mean position.
                 let q = texel_sum.xyz / texel_sum.w;
+                let tolerance = max(SUBSURFACE_AIR_TOLERANCE_MM, texel_width_of(index, q, resolution));
+                share *= through_medium(index, shape, q, tolerance);
                 sum += share * texel_sum.w * subsurface_kernel_value(distance(p, q));
             }
         }
@@ -1639,7 +1827,35 @@ fn subsurface_gather_face(layer: i32, p: vec3<f32>, uv: vec2<f32>, near: bool) -
     return sum;
 }
 
-struct SurfelOut {
+// How much of the light entering at frame point q reaches the point of `shape` through the
+// medium: none where q lies in front of the point's local shape along q's light ray by more
+// than twice `tolerance_mm` — another part, an occluder, whose light crosses the air to get
+// here (the inter-reflection carries that) — all of it where it lies within `tolerance_mm`
+// of the shape's first surface or behind it (the point's own part, whose surface curves
+// inside its osculating sphere), smooth between. The shape's surface the light meets first in
+// q's column: the sphere's near side (none where the ray misses it), or the tangent plane
+// where it faces the light.
+const SUBSURFACE_AIR_TOLERANCE_MM: f32 = 1.0;
+fn through_medium(index: u32, shape: LocalShape, q: vec3<f32>, tolerance_mm: f32) -> f32 {
+    let ray = light_ray(index, q);
+    var ahead = -1e30;
+    if shape.curved {
+        let v = q - shape.centre;
+        let b = dot(ray, v);
+        let discriminant = b * b - (dot(v, v) - shape.radius_mm * shape.radius_mm);
+        if discriminant > 0.0 {
+            ahead = -b - sqrt(discriminant);
+        }
+    } else {
+        let facing = dot(ray, shape.normal);
+        if facing < 0.0 {
+            ahead = dot(shape.point - q, shape.normal) / facing;
+        }
+    }
+    return 1.0 - smoothstep(tolerance_mm, 2.0 * tolerance_mm, ahead);
+}
+
+struct LightViewOut {
     @builtin(position) clip: vec4<f32>,
     // The light's frame (light_frame_point), mm, and the normal in it.
     @location(0) light_position_mm: vec3<f32>,
@@ -1650,17 +1866,17 @@ struct SurfelOut {
     @location(4) @interpolate(flat) face: u32,
 }
 
-// The light-view passes (surfel map, subsurface map): the draws seen from face `face` of
+// The light-view pass (the subsurface map): the draws seen from face `face` of
 // shadowed light `light` (the instance index is light · MAX_SHADOW_FACES + face), in the shadow
 // map's square or frustum.
 @vertex
-fn vs_surfel(vertex: VertexIn, @builtin(instance_index) instance: u32) -> SurfelOut {
+fn vs_light_view(vertex: VertexIn, @builtin(instance_index) instance: u32) -> LightViewOut {
     let light = instance / MAX_SHADOW_FACES;
     let face = instance % MAX_SHADOW_FACES;
     let camera = shadows.lights[light];
     let world = (draw.world_from_model * vec4<f32>(vertex.position, 1.0)).xyz;
     let local = (camera.light_from_world[face] * vec4<f32>(world, 1.0)).xyz;
-    var out: SurfelOut;
+    var out: LightViewOut;
     if camera.projection == SHADOW_ORTHOGRAPHIC {
         out.clip = vec4<f32>(
             local.xy / camera.half_extent,
@@ -1695,7 +1911,7 @@ struct LitTexel {
     area: f32,
 }
 
-fn lit_texel(in: SurfelOut, resolution: u32) -> LitTexel {
+fn lit_texel(in: LightViewOut, resolution: u32) -> LitTexel {
     var texel: LitTexel;
     texel.normal = normalize(in.light_normal);
     texel.cos_theta = -dot(texel.normal, light_ray(in.light, in.light_position_mm));
@@ -1703,27 +1919,11 @@ fn lit_texel(in: SurfelOut, resolution: u32) -> LitTexel {
     return texel;
 }
 
-struct SurfelTexel {
-    @location(0) exitance: vec4<f32>,
-    @location(1) position: vec4<f32>,
-}
-
-@fragment
-fn fs_surfel(in: SurfelOut) -> SurfelTexel {
-    let texel = lit_texel(in, shadows.surfel_resolution);
-    let f = local_value(in.curvature_per_mm, texel.cos_theta, angle(texel.cos_theta));
-    let normal = octahedral_encode(texel.normal);
-    var out: SurfelTexel;
-    out.exitance = vec4<f32>(f / max(texel.cos_theta, SURFEL_MIN_COSINE) * texel.area, normal.x);
-    out.position = vec4<f32>(in.light_position_mm, normal.y);
-    return out;
-}
-
 // The subsurface map pass: level 0 of the pyramid, Φ·position and Φ per texel (see the header).
 // Materials without a diffusion profile (Lambert, the Gaussian CDRF) occlude but let no light in
 // (one pipeline for every model: MODEL is not set here).
 @fragment
-fn fs_subsurface_map(in: SurfelOut) -> @location(0) vec4<f32> {
+fn fs_subsurface_map(in: LightViewOut) -> @location(0) vec4<f32> {
     if !(material.subsurface_reach_mm > 0.0) {
         return vec4<f32>(0.0);
     }

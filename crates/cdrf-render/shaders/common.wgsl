@@ -21,4 +21,6 @@ struct Draw {
     roughness_factor: f32,
     // SURFACE_NORMAL_MAP | SURFACE_ROUGHNESS.
     surface_flags: u32,
+    // The inter-reflection's passes: the frame's emitter of the draw's mesh's first patch.
+    emitter_first: u32,
 }

@@ -102,7 +102,7 @@ gpu_struct! {
         environment_curvature_per_mm: [f32; 2],
         view_curvature_per_mm: [f32; 2],
         view_layers: f32,
-        _pad2: f32,
+        subsurface_cut_mm: f32,
         penumbra_taps: [GpuPenumbraTap; PENUMBRA_TAPS],
         subsurface_kernel: [[f32; 4]; SUBSURFACE_KERNEL_SAMPLES],
         environment_zonal: [[f32; 4]; ENVIRONMENT_ZONAL_ROWS * ENVIRONMENT_SH_BANDS],
@@ -120,7 +120,7 @@ gpu_struct! {
         normal_scale: f32,
         roughness_factor: f32,
         surface_flags: u32,
-        _pad0: f32,
+        emitter_first: u32,
     }
 }
 
@@ -145,10 +145,10 @@ gpu_struct! {
         depth_bias_mm: f32,
         resolution: u32,
         light_count: u32,
-        surfel_resolution: u32,
         subsurface_resolution: u32,
         subsurface_levels: u32,
         _pad0: u32,
+        _pad1: u32,
     }
 }
 
@@ -226,6 +226,7 @@ gpu_struct! {
         visibility_3: Vec4,
         transmission_3: Vec4,
         radiance: Vec4,
+        exitance: Vec4,
     }
 }
 
@@ -233,7 +234,8 @@ impl GpuVertexTerms {
     /// The first shader location of the terms (`VertexTermsIn`).
     const FIRST_LOCATION: u32 = 5;
 
-    /// The second vertex buffer's attributes: one `vec4<f32>` per field, in order.
+    /// The second vertex buffer's attributes: one `vec4<f32>` per field, in order, but the
+    /// exitance (the inter-reflection's source, not shaded).
     pub(crate) const ATTRIBUTES: [wgpu::VertexAttribute; 9] = {
         let mut attributes = [wgpu::VertexAttribute {
             format: wgpu::VertexFormat::Float32x4,
@@ -251,6 +253,44 @@ impl GpuVertexTerms {
 
     /// Bytes per vertex.
     pub(crate) const STRIDE: u64 = size_of::<GpuVertexTerms>() as u64;
+}
+
+gpu_struct! {
+    /// One patch of a mesh (cdrf-core's `patches::SurfacePatch`): the inter-reflection's
+    /// compute passes read them (`Patch`).
+    GpuPatch as "Patch" {
+        centroid: Vec3,
+        area: f32,
+        normal: Vec3,
+        sagitta: f32,
+        curvature_per_mm: f32,
+        first_member: u32,
+        member_count: u32,
+        _pad0: u32,
+    }
+}
+
+gpu_struct! {
+    /// One vertex of a patch and its share of the patch's area (`PatchMember`).
+    GpuPatchMember as "PatchMember" {
+        vertex: u32,
+        weight: f32,
+    }
+}
+
+gpu_struct! {
+    /// One patch as the frame places it, written and read by the inter-reflection's compute
+    /// passes only (`Emitter`).
+    GpuEmitter as "Emitter" {
+        position_mm: Vec3,
+        area_mm2: f32,
+        normal: Vec3,
+        sagitta_mm: f32,
+        direct: Vec3,
+        curvature_per_mm: f32,
+        exitance: Vec3,
+        _pad0: f32,
+    }
 }
 
 /// The stages that read the shading shader's bind groups: the shading pass's and the vertex
@@ -291,8 +331,11 @@ mod tests {
     use crate::shaders::{shading_shader_source, shadow_shader_source};
 
     /// The uniform structs, each declared in the shader(s) that read it.
-    const UNIFORMS: [StructLayout; 9] = [
+    const UNIFORMS: [StructLayout; 12] = [
         GpuVertexTerms::LAYOUT,
+        GpuPatch::LAYOUT,
+        GpuPatchMember::LAYOUT,
+        GpuEmitter::LAYOUT,
         GpuLight::LAYOUT,
         GpuFrame::LAYOUT,
         GpuPenumbraTap::LAYOUT,
@@ -362,6 +405,9 @@ mod tests {
             &UNIFORMS,
             &[
                 "VertexTerms",
+                "Patch",
+                "PatchMember",
+                "Emitter",
                 "Light",
                 "Frame",
                 "PenumbraTap",

@@ -120,6 +120,7 @@ mod frame;
 mod gpu_data;
 mod gpu_types;
 pub mod headless;
+mod interreflection;
 mod material;
 mod mesh;
 mod non_local;

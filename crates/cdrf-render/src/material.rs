@@ -229,6 +229,7 @@ impl MaterialFactory {
                     if !far.is_empty() {
                         let tables = SubsurfaceTables::new(&far, lut);
                         uniforms.subsurface_reach_mm = tables.reach_mm;
+                        uniforms.subsurface_cut_mm = far.cut_mm() as f32;
                         uniforms.subsurface_entry_cosine_power = far.entry_cosine_power() as f32;
                         for (texel, value) in
                             uniforms.subsurface_kernel.iter_mut().zip(&tables.kernel)
@@ -286,6 +287,7 @@ impl MaterialFactory {
                 (Model::Curvature, None, &identity)
             }
         };
+
         uniforms.penumbra_taps = penumbra_taps(uniforms.scattering_length_mm);
 
         let lut_texture = match lut {

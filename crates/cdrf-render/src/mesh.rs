@@ -6,6 +6,7 @@ use wgpu::util::DeviceExt;
 
 use crate::error::MeshUploadError;
 use crate::gpu_types::GpuVertex;
+use crate::interreflection::GpuPatches;
 use crate::pipelines::runs_vertex_terms;
 
 /// A mesh uploaded with [`Renderer::create_mesh`](crate::Renderer::create_mesh).
@@ -150,12 +151,16 @@ pub(crate) struct GpuMesh {
     pub(crate) index_count: u32,
     /// Bounding sphere in model units: centre and radius.
     pub(crate) bounds: (Vec3, f32),
+    /// Its patches for the inter-reflection (where the device runs the compute passes).
+    pub(crate) patches: Option<GpuPatches>,
 }
 
 impl GpuMesh {
+    /// `patch_count`: about how many patches to cut it into for the inter-reflection.
     pub(crate) fn upload(
         device: &wgpu::Device,
         desc: &MeshDesc<'_>,
+        patch_count: u32,
     ) -> Result<Self, MeshUploadError> {
         desc.validate()?;
         let vertices: Vec<GpuVertex> = (0..desc.positions.len())
@@ -191,6 +196,9 @@ impl GpuMesh {
             vertex_count: vertices.len() as u32,
             index_count: desc.indices.len() as u32,
             bounds: bounding_sphere(desc.positions),
+            patches: runs_vertex_terms(&device.limits())
+                .then(|| GpuPatches::upload(device, desc, patch_count))
+                .flatten(),
         })
     }
 }

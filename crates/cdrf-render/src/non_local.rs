@@ -1,10 +1,9 @@
 //! The non-local terms' GPU side: a light camera per shadowed light fitted to the frame's draws
 //! (orthographic for a directional light; for a point or spot light a perspective face aimed at
 //! the draws, or a cube of six when the light is among them), the depth-only shadow pass that
-//! renders their maps, and per face of each light the surfel pass that renders the lit surface
-//! the inter-reflection gathers from and the subsurface pyramid (the light entering the lit
+//! renders their maps, per face of each light the subsurface pyramid (the light entering the lit
 //! surface, for the subsurface gather), and the bind group (group 3) through which the shading
-//! pipelines read them. What the shader does with the maps is
+//! pipelines read them. (The inter-reflection needs no light map: see `interreflection`.) What the shader does with the maps is
 //! documented at the top of `shaders/cdrf.wgsl`.
 
 use std::collections::HashMap;
@@ -26,10 +25,6 @@ use crate::target::Options;
 
 /// The shadow maps' depth format.
 const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-/// The surfel maps' format (exitance and normal x; position and normal y).
-pub(crate) const SURFEL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
-/// The surfel maps' attachments, in the order of `fs_surfel`'s outputs.
-pub(crate) const SURFEL_TARGETS: usize = 2;
 /// The subsurface pyramid's format: Φ·position (mm³) and Φ (mm²) need f32.
 pub(crate) const SUBSURFACE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 /// The subsurface pyramid's coarsest level, texels per side (the gather reads it whole).
@@ -38,21 +33,19 @@ const SUBSURFACE_COARSEST: u32 = 8;
 /// texels this fine is smooth).
 const SUBSURFACE_TEXELS_PER_CUT: f32 = 1.5;
 
-/// A draw of the frame for the shadow and surfel passes: its mesh, its transform's offset in
-/// the draw buffer, its material and the surfel pipeline of its shading model (`None`: it
-/// casts shadows but sends out no inter-reflected light).
+/// A draw of the frame for the shadow and light-view passes: its mesh, its transform's offset
+/// in the draw buffer and its material.
 pub(crate) struct ShadowCaster<'a> {
     pub(crate) mesh: &'a GpuMesh,
     /// The draw's indices in the mesh's index buffer.
     pub(crate) indices: std::ops::Range<u32>,
     pub(crate) draw_offset: u32,
     pub(crate) material: &'a wgpu::BindGroup,
-    pub(crate) surfel_pipeline: Option<&'a wgpu::RenderPipeline>,
 }
 
-/// The bind groups the surfel pass sets besides group 3: the frame's (0) and the draws' (2),
-/// and the subsurface map pass's pipeline (`None`: no subsurface gather this frame).
-pub(crate) struct SurfelBindings<'a> {
+/// The bind groups the light-view pass sets besides group 3: the frame's (0) and the draws'
+/// (2), and the subsurface map pass's pipeline (`None`: no subsurface gather this frame).
+pub(crate) struct LightViewBindings<'a> {
     pub(crate) frame: &'a wgpu::BindGroup,
     pub(crate) draws: &'a wgpu::BindGroup,
     pub(crate) subsurface_pipeline: Option<&'a wgpu::RenderPipeline>,
@@ -152,15 +145,15 @@ impl SubsurfacePyramid {
         }
     }
 
-    /// Renders level 0 of every face (`vs_surfel` / `fs_subsurface_map`) and reduces it level
+    /// Renders level 0 of every face (`vs_light_view` / `fs_subsurface_map`) and reduces it level
     /// by level.
     fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         faces: &[LightFace],
         casters: &[ShadowCaster<'_>],
-        bindings: &SurfelBindings<'_>,
-        surfel_pass_bind_group: &wgpu::BindGroup,
+        bindings: &LightViewBindings<'_>,
+        light_view_bind_group: &wgpu::BindGroup,
         reduce_pipeline: &wgpu::RenderPipeline,
     ) {
         let Some(pipeline) = bindings.subsurface_pipeline else {
@@ -179,7 +172,7 @@ impl SubsurfacePyramid {
                 face.instance(),
                 casters,
                 bindings,
-                surfel_pass_bind_group,
+                light_view_bind_group,
                 |_| Some(pipeline),
             );
             for (coarser, group) in views.iter().skip(1).zip(groups) {
@@ -209,32 +202,28 @@ struct LightFace {
 }
 
 impl LightFace {
-    /// The light-view passes' instance index (`vs_surfel`).
+    /// The light-view passes' instance index (`vs_light_view`).
     fn instance(self) -> u32 {
         (self.light * MAX_SHADOW_FACES + self.face) as u32
     }
 }
 
-/// The shadow maps, the surfel maps and what the shading pipelines read of them (bind group 3).
+/// The shadow maps, the subsurface pyramid and what the shading pipelines read of them (bind
+/// group 3).
 struct ShadowMaps {
     resolution: u32,
-    surfel_resolution: u32,
     /// One view per layer, to render into.
     layers: Vec<wgpu::TextureView>,
-    /// Per face (layer), its surfel map's attachments.
-    surfel_layers: Vec<[wgpu::TextureView; SURFEL_TARGETS]>,
-    /// The surfel pass's depth buffer (shared by the lights).
-    surfel_depth: wgpu::TextureView,
     subsurface: SubsurfacePyramid,
     bind_group: wgpu::BindGroup,
-    /// Group 3 for the surfel pass itself: the same uniforms with blank surfel maps (a map
+    /// Group 3 for the light-view pass itself: the same uniforms with a blank pyramid (a map
     /// cannot be read and written in one pass).
-    surfel_pass_bind_group: wgpu::BindGroup,
+    light_view_bind_group: wgpu::BindGroup,
 }
 
 /// Everything the shadow pass owns.
 pub(crate) struct NonLocalPass {
-    /// Bind group 3's layout (uniforms, the shadow map array and the surfel map arrays).
+    /// Bind group 3's layout (uniforms, the shadow map array and the subsurface pyramids).
     pub(crate) layout: wgpu::BindGroupLayout,
     uniforms: wgpu::Buffer,
     /// Bound when no shadow map exists yet (1 × 1 maps).
@@ -257,17 +246,6 @@ impl NonLocalPass {
     /// `draw_layout`: the shading pass's draw bind group layout (group 2), reused as the shadow
     /// pass's group 1.
     pub(crate) fn new(device: &wgpu::Device, draw_layout: &wgpu::BindGroupLayout) -> Self {
-        let surfel_entry = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            // Gathered per vertex, by the vertex terms pass.
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                view_dimension: wgpu::TextureViewDimension::D2Array,
-                multisampled: false,
-            },
-            count: None,
-        };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf shadows layout"),
             entries: &[
@@ -275,7 +253,7 @@ impl NonLocalPass {
                 wgpu::BindGroupLayoutEntry {
                     binding: 1,
                     // Read per vertex (translucent materials, by the vertex terms pass; the
-                    // surfel passes' vertices) and per pixel (Lambert).
+                    // light-view passes' vertices) and per pixel (Lambert).
                     visibility: SHADING_STAGES,
                     ty: wgpu::BindingType::Texture {
                         sample_type: wgpu::TextureSampleType::Depth,
@@ -284,9 +262,17 @@ impl NonLocalPass {
                     },
                     count: None,
                 },
-                surfel_entry(2),
-                surfel_entry(3),
-                surfel_entry(4),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    // Gathered per vertex, by the vertex terms pass.
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
             ],
         });
         let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
@@ -309,7 +295,7 @@ impl NonLocalPass {
             }],
         });
         let reduce_pipeline = create_reduce_pipeline(device, &reduce_layout);
-        let no_shadows = ShadowMaps::new(device, &layout, &reduce_layout, &uniforms, [1, 1, 1, 1]);
+        let no_shadows = ShadowMaps::new(device, &layout, &reduce_layout, &uniforms, [1, 1, 1]);
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf shadow pass layout"),
             entries: &[uniform_layout_entry::<GpuShadowPass>(
@@ -372,7 +358,7 @@ impl NonLocalPass {
 
     /// Fits an orthographic light camera to the bounding sphere of the draws for each of the
     /// first [`MAX_SHADOW_LIGHTS`] lights, uploads the transforms and records the depth pass,
-    /// then (with inter-reflection on) the surfel pass.
+    /// then (with the subsurface gather on) the subsurface pyramids.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn prepare(
         &mut self,
@@ -382,11 +368,10 @@ impl NonLocalPass {
         frame: &FrameDesc<'_>,
         meshes: &HashMap<MeshId, GpuMesh>,
         casters: &[ShadowCaster<'_>],
-        bindings: SurfelBindings<'_>,
+        bindings: LightViewBindings<'_>,
     ) -> wgpu::CommandBuffer {
         let max_side = device.limits().max_texture_dimension_2d;
         let resolution = options.shadow_map_resolution.clamp(1, max_side);
-        let surfel_resolution = options.interreflection_resolution.clamp(1, max_side);
         let (centre, radius) = scene_bounds(frame.draws, meshes);
         let subsurface_resolution = if bindings.subsurface_pipeline.is_some() {
             subsurface_resolution(
@@ -405,12 +390,7 @@ impl NonLocalPass {
             .map(|light| LightCamera::fit(light, centre, radius))
             .collect();
         let layer_count: usize = cameras.iter().map(|c| c.faces.len()).sum();
-        let sizes = [
-            resolution,
-            surfel_resolution,
-            subsurface_resolution,
-            layer_count.max(1) as u32,
-        ];
+        let sizes = [resolution, subsurface_resolution, layer_count.max(1) as u32];
         if self.maps.as_ref().map(ShadowMaps::sizes) != Some(sizes) {
             self.maps = Some(ShadowMaps::new(
                 device,
@@ -427,7 +407,6 @@ impl NonLocalPass {
             depth_bias_mm: options.shadow_bias_mm.max(0.0),
             resolution,
             light_count: lights as u32,
-            surfel_resolution,
             subsurface_resolution,
             subsurface_levels: maps.subsurface.levels,
             ..bytemuck::Zeroable::zeroed()
@@ -504,15 +483,12 @@ impl NonLocalPass {
                 pass.draw_indexed(caster.indices.clone(), 0, 0..1);
             }
         }
-        if frame.non_local.interreflection {
-            maps.record_surfel_pass(&mut encoder, &faces, casters, &bindings);
-        }
         maps.subsurface.record(
             &mut encoder,
             &faces,
             casters,
             &bindings,
-            &maps.surfel_pass_bind_group,
+            &maps.light_view_bind_group,
             &self.reduce_pipeline,
         );
         self.shadowed_lights = lights;
@@ -522,22 +498,17 @@ impl NonLocalPass {
 
 impl ShadowMaps {
     /// The shadow maps (one depth layer per shadowed light, `resolution` texels per side), the
-    /// surfel maps (`surfel_resolution`) and the shading pipelines' bind group 3 reading them.
-    /// `sizes`: texels per side of the shadow maps, the surfel maps and the subsurface
-    /// pyramid's level 0, and the shadow maps' layers (one per face).
+    /// subsurface pyramid and the shading pipelines' bind group 3 reading them. `sizes`:
+    /// texels per side of the shadow maps and the subsurface pyramid's level 0, and the maps'
+    /// layers (one per face).
     fn new(
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
         reduce_layout: &wgpu::BindGroupLayout,
         uniforms: &wgpu::Buffer,
-        sizes: [u32; 4],
+        sizes: [u32; 3],
     ) -> Self {
-        let [
-            resolution,
-            surfel_resolution,
-            subsurface_resolution,
-            layer_count,
-        ] = sizes;
+        let [resolution, subsurface_resolution, layer_count] = sizes;
         let subsurface =
             SubsurfacePyramid::new(device, reduce_layout, subsurface_resolution, layer_count);
         let blank_pyramid = SubsurfacePyramid::new(device, reduce_layout, 1, 1);
@@ -548,101 +519,47 @@ impl ShadowMaps {
             resolution,
             layer_count,
         );
-        let surfel_maps: [_; SURFEL_TARGETS] = std::array::from_fn(|_| {
-            layered_texture(
-                device,
-                "cdrf surfel maps",
-                SURFEL_FORMAT,
-                surfel_resolution,
-                layer_count,
-            )
-        });
-        let surfel_layers = (0..layer_count as usize)
-            .map(|layer| std::array::from_fn(|target| surfel_maps[target].1[layer].clone()))
-            .collect();
-        let blank: [_; SURFEL_TARGETS] = std::array::from_fn(|_| {
-            layered_texture(device, "cdrf blank surfel maps", SURFEL_FORMAT, 1, 1).0
-        });
-        let group = |surfels: [&wgpu::TextureView; SURFEL_TARGETS], pyramid: &wgpu::TextureView| {
-            let mut entries = vec![
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: uniforms.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&shadow_array),
-                },
-            ];
-            for (binding, view) in (2..).zip(surfels.into_iter().chain([pyramid])) {
-                entries.push(wgpu::BindGroupEntry {
-                    binding,
-                    resource: wgpu::BindingResource::TextureView(view),
-                });
-            }
+        let group = |pyramid: &wgpu::TextureView| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("cdrf shadows"),
                 layout,
-                entries: &entries,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: uniforms.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(&shadow_array),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::TextureView(pyramid),
+                    },
+                ],
             })
         };
-        let bind_group = group(
-            std::array::from_fn(|target| &surfel_maps[target].0),
-            &subsurface.array,
-        );
-        let surfel_pass_bind_group = group(
-            std::array::from_fn(|target| &blank[target]),
-            &blank_pyramid.array,
-        );
-        let surfel_depth = depth_target(device, "cdrf surfel depth", surfel_resolution);
+        let bind_group = group(&subsurface.array);
+        let light_view_bind_group = group(&blank_pyramid.array);
         Self {
             resolution,
-            surfel_resolution,
             layers,
-            surfel_layers,
-            surfel_depth,
             subsurface,
             bind_group,
-            surfel_pass_bind_group,
+            light_view_bind_group,
         }
     }
 
-    fn sizes(&self) -> [u32; 4] {
+    fn sizes(&self) -> [u32; 3] {
         [
             self.resolution,
-            self.surfel_resolution,
             self.subsurface.resolution,
             self.layers.len() as u32,
         ]
     }
-
-    /// Renders the first surface each face of each shadowed light meets into its surfel map
-    /// (`vs_surfel` / `fs_surfel`).
-    fn record_surfel_pass(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        faces: &[LightFace],
-        casters: &[ShadowCaster<'_>],
-        bindings: &SurfelBindings<'_>,
-    ) {
-        for (views, face) in self.surfel_layers.iter().zip(faces) {
-            // Zero exitance: no surface.
-            record_light_view(
-                encoder,
-                "cdrf surfel map",
-                &views.each_ref(),
-                &self.surfel_depth,
-                face.instance(),
-                casters,
-                bindings,
-                &self.surfel_pass_bind_group,
-                |caster| caster.surfel_pipeline,
-            );
-        }
-    }
 }
 
-/// Renders the casters as a face of a shadowed light sees them (`vs_surfel`, `instance` names
+/// Renders the casters as a face of a shadowed light sees them (`vs_light_view`, `instance` names
 /// the light and the face: [`LightFace::instance`]) into `targets`, cleared to zero (no
 /// surface), with `depth` cleared as the depth buffer; `pipeline` gives each caster's pipeline
 /// (`None`: it is left out).
@@ -654,7 +571,7 @@ fn record_light_view<'a>(
     depth: &wgpu::TextureView,
     instance: u32,
     casters: &[ShadowCaster<'a>],
-    bindings: &SurfelBindings<'_>,
+    bindings: &LightViewBindings<'_>,
     pass_bind_group: &wgpu::BindGroup,
     pipeline: impl Fn(&ShadowCaster<'a>) -> Option<&'a wgpu::RenderPipeline>,
 ) {

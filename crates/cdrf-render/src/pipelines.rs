@@ -1,6 +1,7 @@
 //! The shading pipelines, built on demand and cached per target, shading model and
-//! non-local terms, the vertex terms pass's (per shading model and non-local terms) and the
-//! surfel pass's pipelines (one per shading model).
+//! non-local terms, the compute passes' (the vertex terms and, with the inter-reflection, its
+//! emitters, bounces and gather; per shading model and non-local terms) and the subsurface map
+//! pass's.
 
 use std::collections::HashMap;
 
@@ -9,7 +10,7 @@ use cdrf_core::light::NonLocal;
 use crate::error::PrepareError;
 use crate::gpu_data::block_on;
 use crate::gpu_types::{GpuDraw, GpuVertex, GpuVertexTerms, uniform_layout_entry};
-use crate::non_local::{SUBSURFACE_FORMAT, SURFEL_FORMAT, SURFEL_TARGETS};
+use crate::non_local::SUBSURFACE_FORMAT;
 use crate::shaders::{Model, shading_shader_source};
 use crate::target::{LutFiltering, Options, TargetDesc};
 
@@ -27,10 +28,11 @@ pub(crate) fn uses_vertex_terms(model: Model, non_local: NonLocal) -> bool {
                 && (non_local.shadows || non_local.transmission || non_local.subsurface)))
 }
 
-/// Whether a device with these limits runs the vertex terms pass: a compute shader of 64
-/// invocations a group reading the mesh's vertices and writing the terms (two storage buffers).
+/// Whether a device with these limits runs the vertex terms pass: compute shaders of 64
+/// invocations a group reading the mesh's vertices and writing the terms, and the
+/// inter-reflection's patches and emitters (six storage buffers).
 pub(crate) fn runs_vertex_terms(limits: &wgpu::Limits) -> bool {
-    limits.max_storage_buffers_per_shader_stage >= 2
+    limits.max_storage_buffers_per_shader_stage >= 6
         && limits.max_compute_workgroup_size_x >= 64
         && limits.max_compute_invocations_per_workgroup >= 64
 }
@@ -39,14 +41,22 @@ pub(crate) fn runs_vertex_terms(limits: &wgpu::Limits) -> bool {
 pub(crate) struct Pipelines {
     shader: wgpu::ShaderModule,
     layout: wgpu::PipelineLayout,
-    /// The vertex terms pass's group 2 (the draw's transforms with a dynamic offset, the
-    /// mesh's vertices and the terms it writes) and its pipeline layout; `None` on a device
-    /// without compute shaders or storage buffers.
+    /// The compute passes' group 2 (the draw's transforms with a dynamic offset, the mesh's
+    /// vertices, the terms they write, the mesh's patches and the frame's emitters) and their
+    /// pipeline layout; `None` on a device without compute shaders or storage buffers.
     terms_layouts: Option<(wgpu::BindGroupLayout, wgpu::PipelineLayout)>,
     cache: HashMap<PipelineKey, wgpu::RenderPipeline>,
-    terms_cache: HashMap<(Model, NonLocal), wgpu::ComputePipeline>,
-    surfel_cache: HashMap<Model, wgpu::RenderPipeline>,
+    terms_cache: HashMap<(Model, NonLocal), TermsPipelines>,
     subsurface_map: Option<wgpu::RenderPipeline>,
+}
+
+/// The compute passes of a shading model and its non-local terms.
+pub(crate) struct TermsPipelines {
+    /// `cs_vertex_terms`.
+    pub(crate) vertex_terms: wgpu::ComputePipeline,
+    /// With the inter-reflection: `cs_patch_emitters`, `cs_emitter_bounce` and
+    /// `cs_vertex_interreflection`.
+    pub(crate) interreflection: Option<[wgpu::ComputePipeline; 3]>,
 }
 
 impl Pipelines {
@@ -81,6 +91,10 @@ impl Pipelines {
                     uniform_layout_entry::<GpuDraw>(0, wgpu::ShaderStages::COMPUTE, true),
                     storage(7, true),
                     storage(8, false),
+                    storage(9, true),
+                    storage(10, true),
+                    storage(11, true),
+                    storage(12, false),
                 ],
             });
             let [frame, material, _, shadows] = bind_group_layouts;
@@ -102,7 +116,6 @@ impl Pipelines {
             terms_layouts,
             terms_cache: HashMap::new(),
             cache: HashMap::new(),
-            surfel_cache: HashMap::new(),
             subsurface_map: None,
         }
     }
@@ -122,18 +135,18 @@ impl Pipelines {
         self.terms_layouts.is_some()
     }
 
-    /// The vertex terms pass's group 2 layout (bindings 0, 7 and 8 of the shading shader), if
-    /// the device runs it.
+    /// The compute passes' group 2 layout (bindings 0 and 7–12 of the shading shader), if the
+    /// device runs them.
     pub(crate) fn terms_layout(&self) -> Option<&wgpu::BindGroupLayout> {
         self.terms_layouts.as_ref().map(|(layout, _)| layout)
     }
 
-    /// The vertex terms pass's pipeline of a shading model and its non-local terms, if built.
+    /// The compute passes' pipelines of a shading model and its non-local terms, if built.
     pub(crate) fn vertex_terms(
         &self,
         model: Model,
         non_local: NonLocal,
-    ) -> Option<&wgpu::ComputePipeline> {
+    ) -> Option<&TermsPipelines> {
         self.terms_cache.get(&(model, non_local))
     }
 
@@ -188,14 +201,29 @@ impl Pipelines {
             .filter(|_| terms && !self.terms_cache.contains_key(&(model, non_local)))
             .map(|(_, layout)| layout);
         let terms_pipeline = terms_pipeline_layout.map(|layout| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("cdrf vertex terms pipeline"),
-                layout: Some(layout),
-                module: &self.shader,
-                entry_point: Some("cs_vertex_terms"),
-                compilation_options: compilation_options.clone(),
-                cache: None,
-            })
+            let compute = |label, entry_point| {
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(layout),
+                    module: &self.shader,
+                    entry_point: Some(entry_point),
+                    compilation_options: compilation_options.clone(),
+                    cache: None,
+                })
+            };
+            TermsPipelines {
+                vertex_terms: compute("cdrf vertex terms pipeline", "cs_vertex_terms"),
+                interreflection: non_local.interreflection.then(|| {
+                    [
+                        compute("cdrf patch emitters pipeline", "cs_patch_emitters"),
+                        compute("cdrf emitter bounce pipeline", "cs_emitter_bounce"),
+                        compute(
+                            "cdrf vertex interreflection pipeline",
+                            "cs_vertex_interreflection",
+                        ),
+                    ]
+                }),
+            }
         });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("cdrf pipeline"),
@@ -275,43 +303,7 @@ impl Pipelines {
         Ok(())
     }
 
-    /// The surfel pass's pipeline of a shading model, if built.
-    pub(crate) fn surfel(&self, model: Model) -> Option<&wgpu::RenderPipeline> {
-        self.surfel_cache.get(&model)
-    }
-
-    /// Builds the surfel pass's pipeline of a shading model unless cached: `fs_surfel` into the
-    /// surfel maps.
-    pub(crate) fn ensure_surfel(
-        &mut self,
-        device: &wgpu::Device,
-        options: &Options,
-        model: Model,
-    ) -> Result<(), PrepareError> {
-        if self.surfel_cache.contains_key(&model) {
-            return Ok(());
-        }
-        let constants = [
-            ("MODEL", model as u32 as f64),
-            (
-                "MANUAL_FILTERING",
-                flag(options.lut_filtering == LutFiltering::Manual),
-            ),
-        ];
-        let targets: [_; SURFEL_TARGETS] =
-            std::array::from_fn(|_| Some(color_target(SURFEL_FORMAT)));
-        let pipeline = self.light_view_pipeline(
-            device,
-            "cdrf surfel pipeline",
-            "fs_surfel",
-            &constants,
-            &targets,
-        )?;
-        self.surfel_cache.insert(model, pipeline);
-        Ok(())
-    }
-
-    /// A pipeline of the passes that render the draws as the light sees them (`vs_surfel`, the
+    /// A pipeline of the passes that render the draws as the light sees them (`vs_light_view`, the
     /// light is the instance index) into maps: no culling (the first surface whatever its
     /// winding, as the shadow pass), its own depth test, `fragment` into `targets`. wgpu's
     /// validation error, if any, is returned.
@@ -333,7 +325,7 @@ impl Pipelines {
             layout: Some(&self.layout),
             vertex: wgpu::VertexState {
                 module: &self.shader,
-                entry_point: Some("vs_surfel"),
+                entry_point: Some("vs_light_view"),
                 compilation_options: compilation_options.clone(),
                 buffers: &[Some(wgpu::VertexBufferLayout {
                     array_stride: GpuVertex::STRIDE,
@@ -368,7 +360,7 @@ impl Pipelines {
                 .iter()
                 .flatten()
                 .next()
-                .map_or(SURFEL_FORMAT, |t| t.format);
+                .map_or(SUBSURFACE_FORMAT, |t| t.format);
             return Err(PrepareError::Pipeline {
                 target: TargetDesc::new(format),
                 message: error.to_string(),

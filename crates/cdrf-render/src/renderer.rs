@@ -10,12 +10,14 @@ use cdrf_core::specular::SpecularLayer;
 use crate::error::{MaterialError, MeshUploadError, PrepareError, SurfaceError};
 use crate::frame::{FrameDesc, ToCamera};
 use crate::gpu_types::{
-    GpuDraw, GpuFrame, GpuLight, GpuVertexTerms, SHADING_STAGES, uniform_layout_entry, uniform_size,
+    GpuDraw, GpuEmitter, GpuFrame, GpuLight, GpuPatch, GpuVertexTerms, SHADING_STAGES,
+    uniform_layout_entry, uniform_size,
 };
+use crate::interreflection::Emitters;
 use crate::material::{GpuMaterialEntry, MaterialDesc, MaterialFactory, MaterialId};
 use crate::mesh::{GpuMesh, MeshDesc, MeshId};
-use crate::non_local::{NonLocalPass, ShadowCaster, SurfelBindings};
-use crate::pipelines::{Pipelines, runs_vertex_terms, uses_vertex_terms};
+use crate::non_local::{LightViewBindings, NonLocalPass, ShadowCaster};
+use crate::pipelines::{Pipelines, TermsPipelines, runs_vertex_terms, uses_vertex_terms};
 use crate::shaders::{
     ENVIRONMENT_SH_ORDER, GPU_LIGHT_DIRECTIONAL, GPU_LIGHT_POINT, GPU_LIGHT_SPOT, MAX_LIGHTS, Model,
 };
@@ -48,6 +50,10 @@ struct TermsRegion {
     vertex_count: u32,
     /// Where its terms go in the terms buffer (bytes).
     range: std::ops::Range<u64>,
+    /// With the inter-reflection: its mesh's patches' first emitter of the frame, and how
+    /// many (`None`: it sends out no light; another run of the same mesh and transform does,
+    /// or it has no patches).
+    emitters: Option<(u32, u32)>,
 }
 
 /// What a vertex's terms depend on: mesh, material, non-local terms, the transform's bits.
@@ -76,6 +82,10 @@ pub struct Renderer {
     /// needed; `terms_capacity` bytes).
     terms_buffer: wgpu::Buffer,
     terms_capacity: u64,
+    /// The inter-reflection's emitters of the frame.
+    emitters: Emitters,
+    /// Bound in the compute passes' place of a mesh's patches when it has none.
+    no_patches: wgpu::Buffer,
     /// The surface of draws without one (white, no textures), made by the first `prepare`
     /// (its textures need the queue); its bind group also serves the non-local passes, which
     /// read only the draw buffer.
@@ -153,6 +163,12 @@ impl Renderer {
         let draw_buffer = create_draw_buffer(device, draw_stride, draw_capacity);
         let terms_capacity = GpuVertexTerms::STRIDE;
         let terms_buffer = create_terms_buffer(device, terms_capacity);
+        let no_patches = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cdrf no patches"),
+            size: size_of::<GpuPatch>() as u64,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
         Self {
             options,
             target: *target,
@@ -167,6 +183,8 @@ impl Renderer {
             draw_capacity,
             terms_buffer,
             terms_capacity,
+            emitters: Emitters::new(device),
+            no_patches,
             default_surface: None,
             meshes: HashMap::new(),
             materials: HashMap::new(),
@@ -207,7 +225,7 @@ impl Renderer {
         device: &wgpu::Device,
         desc: &MeshDesc<'_>,
     ) -> Result<MeshId, MeshUploadError> {
-        let gpu = GpuMesh::upload(device, desc)?;
+        let gpu = GpuMesh::upload(device, desc, self.options.interreflection_patches)?;
         let id = MeshId(self.next_id());
         self.meshes.insert(id, gpu);
         Ok(id)
@@ -427,6 +445,7 @@ impl Renderer {
         let max_terms_vertices =
             device.limits().max_storage_buffer_binding_size / GpuVertexTerms::STRIDE;
         let mut terms_end = 0;
+        let mut emitter_count = 0u32;
         for (index, draw) in frame.draws.iter().enumerate() {
             let Some(mesh) = self.meshes.get(&draw.mesh) else {
                 return Err(PrepareError::UnknownMesh {
@@ -460,11 +479,9 @@ impl Renderer {
                     triangles: triangle_count,
                 });
             }
-            let uniforms = draw_uniforms(draw.world_from_model, &parameters)
+            let mut uniforms = draw_uniforms(draw.world_from_model, &parameters)
                 .ok_or(PrepareError::BadTransform { index })?;
             let offset = index * self.draw_stride as usize;
-            draws[offset..offset + size_of::<GpuDraw>()]
-                .copy_from_slice(bytemuck::bytes_of(&uniforms));
             let non_local = if model == Model::Curvature {
                 NonLocal::OFF
             } else {
@@ -475,9 +492,6 @@ impl Renderer {
             }
             self.pipelines
                 .ensure(device, &self.options, self.target, model, non_local)?;
-            if non_local.interreflection {
-                self.pipelines.ensure_surfel(device, &self.options, model)?;
-            }
             if non_local.subsurface {
                 self.pipelines.ensure_subsurface_map(device)?;
             }
@@ -489,6 +503,7 @@ impl Renderer {
                     draw.world_from_model.to_cols_array().map(f32::to_bits),
                 );
                 if let Some(region) = regions.iter().find(|region| region.key == key) {
+                    uniforms.emitter_first = region.emitters.map_or(0, |(first, _)| first);
                     Some(region.range.clone())
                 } else {
                     if u64::from(mesh.vertex_count) > max_terms_vertices {
@@ -500,18 +515,35 @@ impl Renderer {
                     }
                     let start = u64::next_multiple_of(terms_end, terms_alignment);
                     terms_end = start + u64::from(mesh.vertex_count) * GpuVertexTerms::STRIDE;
+                    // One run of a mesh and transform sends out its light (another material
+                    // on the same surface would send it twice).
+                    let emits_already = regions.iter().any(|region| {
+                        region.emitters.is_some() && region.key.0 == key.0 && region.key.3 == key.3
+                    });
+                    let emitters = match &mesh.patches {
+                        Some(patches) if non_local.interreflection && !emits_already => {
+                            let first = emitter_count;
+                            emitter_count += patches.count;
+                            Some((first, patches.count))
+                        }
+                        _ => None,
+                    };
+                    uniforms.emitter_first = emitters.map_or(0, |(first, _)| first);
                     regions.push(TermsRegion {
                         key,
                         model,
                         draw_offset: offset as u32,
                         vertex_count: mesh.vertex_count,
                         range: start..terms_end,
+                        emitters,
                     });
                     Some(start..terms_end)
                 }
             } else {
                 None
             };
+            draws[offset..offset + size_of::<GpuDraw>()]
+                .copy_from_slice(bytemuck::bytes_of(&uniforms));
             prepared.push(PreparedDraw {
                 model,
                 non_local,
@@ -546,8 +578,11 @@ impl Renderer {
             self.terms_capacity = terms_end.next_power_of_two();
             self.terms_buffer = create_terms_buffer(device, self.terms_capacity);
         }
+        self.emitters.reserve(device, emitter_count);
         let mut commands = Vec::new();
-        if frame.non_local.any() && !prepared.is_empty() {
+        let light_maps =
+            frame.non_local.shadows || frame.non_local.transmission || frame.non_local.subsurface;
+        if light_maps && !prepared.is_empty() {
             let casters: Vec<ShadowCaster<'_>> = prepared
                 .iter()
                 .filter_map(|draw| {
@@ -556,12 +591,6 @@ impl Renderer {
                         indices: draw.indices.clone(),
                         draw_offset: draw.offset,
                         material: &self.materials.get(&draw.material)?.bind_group,
-                        // The curvature view sends out no light.
-                        surfel_pipeline: draw
-                            .non_local
-                            .interreflection
-                            .then(|| self.pipelines.surfel(draw.model))
-                            .flatten(),
                     })
                 })
                 .collect();
@@ -573,7 +602,7 @@ impl Renderer {
                     frame,
                     &self.meshes,
                     &casters,
-                    SurfelBindings {
+                    LightViewBindings {
                         frame: &self.frame_bind_group,
                         draws: &self
                             .default_surface
@@ -590,22 +619,91 @@ impl Renderer {
             );
         }
         if !regions.is_empty() {
-            commands.push(self.vertex_terms_pass(device, &regions));
+            commands.push(self.vertex_terms_pass(device, &regions, emitter_count));
         }
         self.prepared = prepared;
         Ok(commands)
     }
 
-    /// The vertex terms pass: each region's vertices' non-local terms, once, after the light
-    /// maps they read.
+    /// The compute passes, after the light maps they read: each region's vertices' non-local
+    /// terms, once; then with the inter-reflection its `emitter_count` emitters (the regions'
+    /// patches), their bounces and each region's gather.
     fn vertex_terms_pass(
         &self,
         device: &wgpu::Device,
         regions: &[TermsRegion],
+        emitter_count: u32,
     ) -> wgpu::CommandBuffer {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("cdrf vertex terms"),
         });
+        if emitter_count == 0 {
+            // Gathers read one blank emitter.
+            for buffer in &self.emitters.buffers {
+                encoder.clear_buffer(buffer, 0, Some(size_of::<GpuEmitter>() as u64));
+            }
+        }
+        // Per region: its pipelines and its group 2 reading emitter buffer `source` (0 or 1)
+        // and writing the other.
+        let runs: Vec<_> = regions
+            .iter()
+            .filter_map(|region| {
+                let (mesh_id, material_id, non_local, _) = region.key;
+                let mesh = self.meshes.get(&mesh_id)?;
+                let material = self.materials.get(&material_id)?;
+                let pipelines = self.pipelines.vertex_terms(region.model, non_local)?;
+                let layout = self.pipelines.terms_layout()?;
+                let bind_group = |source: usize| {
+                    let (patches, members) = match &mesh.patches {
+                        Some(patches) => (&patches.patches, &patches.members),
+                        None => (&self.no_patches, &self.no_patches),
+                    };
+                    device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("cdrf vertex terms"),
+                        layout,
+                        entries: &[
+                            wgpu::BindGroupEntry {
+                                binding: 0,
+                                resource: wgpu::BindingResource::Buffer(draw_binding(
+                                    &self.draw_buffer,
+                                )),
+                            },
+                            wgpu::BindGroupEntry {
+                                binding: 7,
+                                resource: mesh.vertices.as_entire_binding(),
+                            },
+                            wgpu::BindGroupEntry {
+                                binding: 8,
+                                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                    buffer: &self.terms_buffer,
+                                    offset: region.range.start,
+                                    size: wgpu::BufferSize::new(
+                                        region.range.end - region.range.start,
+                                    ),
+                                }),
+                            },
+                            wgpu::BindGroupEntry {
+                                binding: 9,
+                                resource: patches.as_entire_binding(),
+                            },
+                            wgpu::BindGroupEntry {
+                                binding: 10,
+                                resource: members.as_entire_binding(),
+                            },
+                            wgpu::BindGroupEntry {
+                                binding: 11,
+                                resource: self.emitters.binding(source, emitter_count),
+                            },
+                            wgpu::BindGroupEntry {
+                                binding: 12,
+                                resource: self.emitters.binding(1 - source, emitter_count),
+                            },
+                        ],
+                    })
+                };
+                Some((region, material, pipelines, [bind_group(0), bind_group(1)]))
+            })
+            .collect();
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("cdrf vertex terms"),
@@ -613,48 +711,57 @@ impl Renderer {
             });
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             pass.set_bind_group(3, self.non_local.bind_group(), &[]);
-            for region in regions {
-                let (mesh_id, material_id, non_local, _) = region.key;
-                let (Some(mesh), Some(material), Some(pipeline), Some(layout)) = (
-                    self.meshes.get(&mesh_id),
-                    self.materials.get(&material_id),
-                    self.pipelines.vertex_terms(region.model, non_local),
-                    self.pipelines.terms_layout(),
-                ) else {
-                    continue;
+            // Each stage over every run: `count` invocations of `pipeline` reading emitter
+            // buffer `source`.
+            let mut stage =
+                |pipeline: &dyn Fn(&TermsPipelines) -> Option<&wgpu::ComputePipeline>,
+                 count: &dyn Fn(&TermsRegion) -> Option<u32>,
+                 source: usize| {
+                    for (region, material, pipelines, bind_groups) in &runs {
+                        let (Some(pipeline), Some(count)) = (pipeline(pipelines), count(region))
+                        else {
+                            continue;
+                        };
+                        pass.set_pipeline(pipeline);
+                        pass.set_bind_group(1, &material.bind_group, &[]);
+                        pass.set_bind_group(2, &bind_groups[source], &[region.draw_offset]);
+                        // 64 invocations a group (the shader's workgroup size), on a grid whose
+                        // rows hold at most 65 535 groups.
+                        let groups = count.div_ceil(64);
+                        let columns = groups.clamp(1, 65_535);
+                        pass.dispatch_workgroups(columns, groups.div_ceil(columns), 1);
+                    }
                 };
-                let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("cdrf vertex terms"),
-                    layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: wgpu::BindingResource::Buffer(draw_binding(
-                                &self.draw_buffer,
-                            )),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 7,
-                            resource: mesh.vertices.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 8,
-                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                                buffer: &self.terms_buffer,
-                                offset: region.range.start,
-                                size: wgpu::BufferSize::new(region.range.end - region.range.start),
-                            }),
-                        },
-                    ],
-                });
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(1, &material.bind_group, &[]);
-                pass.set_bind_group(2, &bind_group, &[region.draw_offset]);
-                // 64 vertices a group (the shader's workgroup size), on a grid whose rows
-                // hold at most 65 535 groups.
-                let groups = region.vertex_count.div_ceil(64);
-                let columns = groups.clamp(1, 65_535);
-                pass.dispatch_workgroups(columns, groups.div_ceil(columns), 1);
+            let vertices = |region: &TermsRegion| Some(region.vertex_count);
+            let patches = |region: &TermsRegion| region.emitters.map(|(_, count)| count);
+            stage(&|p| Some(&p.vertex_terms), &vertices, 1);
+            if emitter_count > 0 {
+                // The emitters' own light into buffer 0, then each bounce into the other.
+                stage(
+                    &|p| p.interreflection.as_ref().map(|[e, _, _]| e),
+                    &patches,
+                    1,
+                );
+                let mut source = 0;
+                for _ in 1..self.options.interreflection_bounces.max(1) {
+                    stage(
+                        &|p| p.interreflection.as_ref().map(|[_, b, _]| b),
+                        &patches,
+                        source,
+                    );
+                    source = 1 - source;
+                }
+                stage(
+                    &|p| p.interreflection.as_ref().map(|[_, _, g]| g),
+                    &vertices,
+                    source,
+                );
+            } else {
+                stage(
+                    &|p| p.interreflection.as_ref().map(|[_, _, g]| g),
+                    &vertices,
+                    0,
+                );
             }
         }
         encoder.finish()
@@ -832,7 +939,7 @@ fn draw_uniforms(world_from_model: Mat4, surface: &SurfaceParameters) -> Option<
         normal_scale: surface.normal_scale,
         roughness_factor: surface.roughness_factor,
         surface_flags: surface.flags,
-        _pad0: 0.0,
+        emitter_first: 0,
     })
 }
 

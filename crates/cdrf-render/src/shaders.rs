@@ -112,6 +112,10 @@ pub fn wgsl_constants() -> String {
             "VERTEX_CURVATURE",
             offset_of!(GpuVertex, curvature_per_mm) / float,
         ),
+        (
+            "VERTEX_ANISOTROPY",
+            offset_of!(GpuVertex, curvature_anisotropy_per_mm) / float,
+        ),
     ] {
         wgsl.push_str(&format!("const {name}: u32 = {value}u;\n"));
     }

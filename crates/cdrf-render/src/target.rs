@@ -100,14 +100,18 @@ pub struct Options {
     /// How much nearer the light than the local surface predicts an occluder must be to count,
     /// mm (on top of one texel times the surface's depth slope).
     pub shadow_bias_mm: f32,
-    /// Texels per side of each light's surfel map, the lit surface the inter-reflection
-    /// gathers from (used only when a frame turns [`NonLocal::interreflection`] on; the map
-    /// covers the same square as the shadow map, one sample per texel). Each vertex reads every
-    /// texel once per shadowed light, so the cost grows with its square; on the path-traced
-    /// knot 16 to 48 give the same whole-object error to ±1.5 points.
+    /// About how many patches [`Renderer::create_mesh`] cuts each mesh into for the
+    /// inter-reflection (its emitters and receivers; cdrf-core's
+    /// [`SurfacePatches`](cdrf_core::patches::SurfacePatches)): each vertex gathers every patch
+    /// of the frame's draws, so the cost grows with vertices × patches. 0: none (the mesh sends
+    /// out no inter-reflected light). A mesh takes the count it is created with.
     ///
-    /// [`NonLocal::interreflection`]: crate::NonLocal::interreflection
-    pub interreflection_resolution: u32,
+    /// [`Renderer::create_mesh`]: crate::Renderer::create_mesh
+    pub interreflection_patches: u32,
+    /// Bounces of the inter-reflection (at least 1): light from the patches' own exitance,
+    /// then what they pass on to each other, each further bounce one pass over patches ×
+    /// patches.
+    pub interreflection_bounces: u32,
     /// The subsurface gather's cut ℓ_c, mm: the diffusion profile's terms longer than this
     /// reach beyond the point's osculating sphere and are gathered (their far part); shorter
     /// ones stay in the measured table alone (see [`FarField`]). The gather's map is made fine
@@ -136,7 +140,8 @@ impl Options {
         cull_back_faces: true,
         shadow_map_resolution: 512,
         shadow_bias_mm: 0.5,
-        interreflection_resolution: 16,
+        interreflection_patches: 256,
+        interreflection_bounces: 3,
         subsurface_cut_mm: 1.0,
         subsurface_max_resolution: 512,
     };
