@@ -16,8 +16,10 @@ use cdrf_core::scene::{
     Camera, Material, MeshSpec, ModelTransform, Projection, Scene, SceneAssets, ShadingSpec,
 };
 use cdrf_core::{CdrfLut, Mesh, Translucency, read_lut};
+use cdrf_render::Options;
+use cdrf_render::headless::{RenderSettings, render_scene};
 use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
-use cdrf_tests::{data_dir, merged, render_predictable};
+use cdrf_tests::{data_dir, merged, render_predictable, software_device};
 
 /// As in `render.rs`: lavapipe renders are deterministic; any real change of the terms moves
 /// the mean FLIP above this.
@@ -551,6 +553,81 @@ fn interreflection_matches_the_form_factor_and_vanishes_on_a_sphere() {
     }
 }
 
+/// Every bounce of the inter-reflection against the radiosity it approximates: inside a hollow
+/// Lambertian sphere (albedo ρ, lit evenly by a point light at its centre) every point sees the
+/// whole wall with form factor 1, so each bounce multiplies the light by ρ: with B bounces the
+/// wall's radiance is ρE/π · (1 + ρ + … + ρ^B). The camera sits at the centre too.
+#[test]
+fn interreflection_bounces_as_inside_a_hollow_sphere() {
+    let albedo = 0.5f32;
+    let radius_mm = 40.0;
+    // Turned inside out: normals toward the centre, triangles counter-clockwise seen from it.
+    let mut mesh = Mesh::icosphere(radius_mm, 4);
+    for normal in &mut mesh.normals {
+        *normal = -*normal;
+    }
+    for triangle in &mut mesh.triangles {
+        triangle.swap(1, 2);
+    }
+    let (mesh, curvature) = merged(&[(mesh, Vec3::ZERO)]);
+    let assets = SceneAssets {
+        mesh,
+        curvature_per_mm: curvature.mean_per_mm,
+        curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
+        material: Material::Lambert {
+            albedo: [albedo; 3],
+        },
+        surfaces: Default::default(),
+    };
+    let irradiance = 1.0f32;
+    let mut scene = scene_lit(
+        radius_mm,
+        Light::Point(PointLight {
+            position: Vec3::ZERO,
+            intensity: [irradiance * radius_mm * radius_mm; 3],
+        }),
+        NonLocal {
+            interreflection: true,
+            ..NonLocal::OFF
+        },
+    );
+    scene.camera.projection = Projection::Perspective {
+        vertical_fov_deg: 60.0,
+    };
+    scene.camera.eye = Vec3::ZERO;
+    scene.camera.target = Vec3::new(0.0, 0.0, -1.0);
+    let direct = albedo * irradiance / PI;
+    for bounces in [1u32, 2, 3] {
+        let settings = RenderSettings {
+            options: Options {
+                interreflection_bounces: bounces,
+                ..Options::PREDICTABLE
+            },
+            ..RenderSettings::default()
+        };
+        let image = render_scene(software_device(), &scene, &assets, &settings)
+            .unwrap_or_else(|error| panic!("{error}"))
+            .image;
+        let expected = direct * (0..=bounces).map(|k| albedo.powi(k as i32)).sum::<f32>();
+        // The middle of the view, where the wall is a few pixels from the image's centre.
+        let found = mean_red(&image, (SIZE / 2, SIZE / 2), 8);
+        let worst = image
+            .pixels
+            .iter()
+            .map(|p| (p[0] / expected - 1.0).abs())
+            .fold(0.0, f32::max);
+        println!(
+            "{bounces} bounce(s): {found:.5} (radiosity says {expected:.5}, direct {direct:.5}); worst pixel {:.2} %",
+            100.0 * worst
+        );
+        assert!(
+            (found / expected - 1.0).abs() < 0.02,
+            "{bounces} bounces: {found} vs {expected}"
+        );
+        assert!(worst < 0.03, "{bounces} bounces: a pixel {worst} off");
+    }
+}
+
 /// The subsurface gather against the integral it approximates: a 4 mm slab lit from behind —
 /// head-on by a directional light, and from 60 mm behind by a point light and by a spot light
 /// whose cone's edge crosses the slab (one perspective face each). The light entering the back
@@ -564,7 +641,7 @@ fn interreflection_matches_the_form_factor_and_vanishes_on_a_sphere() {
 fn the_subsurface_gather_matches_the_profile_through_a_slab() {
     use cdrf_core::diffusion::FarField;
     let (lut, _) = wax();
-    let options = cdrf_render::Options::PREDICTABLE;
+    let options = Options::PREDICTABLE;
     let profile = lut
         .diffusion_profile()
         .expect("the bundled fit has a profile");

@@ -326,10 +326,10 @@ impl MaterialFactory {
                 self.upload_table(
                     device,
                     queue,
-                    "cdrf subsurface sphere",
+                    "cdrf subsurface near field",
                     tables.sphere_columns,
                     tables.sphere_rows,
-                    &tables.sphere,
+                    &tables.near,
                 )?,
                 self.upload_table(
                     device,
@@ -344,7 +344,7 @@ impl MaterialFactory {
                 self.upload_table(
                     device,
                     queue,
-                    "cdrf subsurface sphere (unused)",
+                    "cdrf subsurface near field (unused)",
                     1,
                     1,
                     &[Vec3::ZERO],
@@ -473,8 +473,9 @@ struct SubsurfaceTables {
     /// R_far at d = reach · (i / (samples − 1))², mm⁻².
     kernel: Vec<Vec3>,
     reach_mm: f32,
-    /// F_sphere on the LUT's axes: θ columns, κ rows.
-    sphere: Vec<Vec3>,
+    /// The table's near field f − F_sphere on the LUT's axes (θ columns, κ rows): what the
+    /// shader reads in f's place with the gather (one read instead of two per pixel).
+    near: Vec<Vec3>,
     /// s(κ, θ), on the same axes: the table over F_sphere at max(θ, [`Self::GAIN_FROM_THETA_DEG`]).
     gain: Vec<Vec3>,
     sphere_columns: usize,
@@ -552,10 +553,15 @@ impl SubsurfaceTables {
             }
         });
         let gain = Self::gain(lut, &sphere, columns);
+        let near = (0..rows)
+            .flat_map(|row| lut.row(row).iter().take(columns))
+            .zip(&sphere)
+            .map(|(f, far)| *f - *far)
+            .collect();
         Self {
             kernel,
             reach_mm: reach_mm as f32,
-            sphere,
+            near,
             gain,
             sphere_columns: columns,
             sphere_rows: rows,
