@@ -1,5 +1,6 @@
 //! Curvature throughput on a ≥ 1M-vertex mesh, parallel vs one thread, and accuracy against the
-//! analytic torus. `cargo bench -p cdrf-core --bench curvature`.
+//! analytic torus; the time to cut that mesh into the inter-reflection's patches.
+//! `cargo bench -p cdrf-core --bench curvature`.
 //!
 //! With `CDRF_BENCH_EXPORT=DIR` it also writes, for the big torus and the analytic test shapes,
 //! `NAME.obj`, `NAME.truth.txt` (analytic mean curvature per vertex), `NAME.cdrf.txt` (this
@@ -14,6 +15,7 @@ use std::time::{Duration, Instant};
 
 use cdrf_core::curvature::{CurvatureOptions, mean_curvature_per_mm, mean_curvature_per_mm_welded};
 use cdrf_core::mesh::Mesh;
+use cdrf_core::patches::SurfacePatches;
 use common::{ellipsoid_mean_curvature, irregular_ellipsoid, relative_error, torus_mean_curvature};
 use glam::Vec3;
 
@@ -108,6 +110,26 @@ fn main() {
         "error vs analytic torus, 1 smoothing iteration: {}",
         relative_error(&smoothed_curvature, &truth)
     );
+
+    // The renderer cuts each mesh into patches for the inter-reflection when it is created.
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let curvature_f32: Vec<f32> = curvature.iter().map(|&k| k as f32).collect();
+    for target in [256, 1024] {
+        let (cut, patches) = best_time(3, || {
+            SurfacePatches::build(
+                &mesh.positions,
+                &mesh.normals,
+                &curvature_f32,
+                &indices,
+                target,
+            )
+        });
+        println!(
+            "SurfacePatches::build, {target} patches, {threads} threads: {:7.3} s  ({} patches)",
+            cut.as_secs_f64(),
+            patches.patches.len()
+        );
+    }
 
     if let Some(dir) = export {
         std::fs::create_dir_all(&dir).expect("export directory");

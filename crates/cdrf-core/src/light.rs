@@ -171,15 +171,16 @@ pub struct NonLocal {
     /// Transmission: light through parts thinner than the CDRF assumes, and (with `shadows`)
     /// through occluders, by the material's T(d, μ).
     pub transmission: bool,
-    /// One inter-reflection: light that left the lit surface and enters another part of the
-    /// object (or another draw) through the air, as between the strands of a knot. Zero on
-    /// convex objects, where no two points of the surface face each other.
+    /// Inter-reflection: light that left one part of the object (or another draw) — its lit
+    /// side or its glow — and enters another through the air, bounce after bounce, as between
+    /// the strands of a knot (a radiosity between surface patches: [`crate::patches`]). Zero
+    /// on convex objects, where no two points of the surface face each other.
     pub interreflection: bool,
     /// Subsurface gather: light that entered the lit surface near the point — beside it, behind
-    /// it, through an occluder — weighted by the material's diffusion profile
+    /// it — and reached it through the medium, weighted by the material's diffusion profile
     /// ([`crate::diffusion`]) beyond what the point's osculating sphere already lets the CDRF
     /// see. For materials with a profile it replaces `transmission`'s T(d, μ) (the gather holds
-    /// the light through thin parts and occluders too); without one, T(d, μ) stays.
+    /// the light through thin parts too); without one, T(d, μ) stays.
     pub subsurface: bool,
 }
 

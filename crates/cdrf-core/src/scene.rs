@@ -43,7 +43,7 @@
 //! # curvature_range_per_mm = [-0.1, 0.1]  # model = "curvature" (default ±max |κ| of the mesh)
 //! shadows = false               # optional: translucent visibility from shadow maps (default false)
 //! transmission = false          # optional: light through thin parts, T(d, μ) (default false)
-//! interreflection = false       # optional: one bounce of light between parts (default false)
+//! interreflection = false       # optional: light between parts, bounce after bounce (default false)
 //! subsurface = false            # optional: light that entered the lit surface nearby, by the
 //!                               # LUT's diffusion profile (default false; replaces T(d, μ))
 //! specular = false              # optional: first-surface reflection on top (default false;

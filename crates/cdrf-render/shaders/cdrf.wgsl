@@ -56,9 +56,10 @@
 // frame's emitters (world mm: centroid, normal, area, sagitta); cs_emitter_bounce adds to each
 // emitter what the others send it, Options::interreflection_bounces − 1 times; and
 // cs_vertex_interreflection gathers the emitters at every vertex. An emitter e lights a point as
-// a Lambertian disc of its area A and exitance M (exact on its axis, 1/d² far away),
-// E⊥ = M · A · cos θ_e / (π d² + A), cos θ_e measured above e's plane less its sagitta (a convex
-// patch does not light its own surface), with no visibility test; the point answers with its
+// a Lambertian disc of its area A and exitance M (exact on its axis, 1/d² far away, the disc's
+// area as the point sees it saturating the 1/d² near it), E⊥ = M · A cos θ_e / (π d² + A cos θ_e),
+// cos θ_e measured above e's plane less its sagitta (a convex patch does not light its own
+// surface), with no visibility test; the point answers with its
 // CDRF as to a small light in e's direction, E⊥/π · f(κ, θ_ω), θ_ω past 90° included (light
 // entering the point's part beside it), f from its zonal expansion at the point's mean
 // curvature (zonal_value: no texture read per emitter), and the sum times the view correction
@@ -763,7 +764,9 @@ fn gathered_light(receiver: Receiver, skip: u32) -> vec3<f32> {
         }
         let d2 = dot(from_emitter, from_emitter);
         let d = sqrt(d2);
-        let facing = e.exitance * (e.area_mm2 * height / d / (PI * d2 + e.area_mm2));
+        // The disc's area seen from the point, A cos θ_e, saturates its 1/d² near it.
+        let seen_mm2 = e.area_mm2 * height / d;
+        let facing = e.exitance * (seen_mm2 / (PI * d2 + seen_mm2));
         sum += facing * zonal_value(response, -dot(receiver.normal, from_emitter) / d);
     }
     return sum;

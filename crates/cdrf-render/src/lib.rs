@@ -104,16 +104,21 @@
 //! (LUT file format version 3, or 2 without the entry cosine); the Gaussian CDRF uses its σ as scattering length and has no
 //! T(d); Lambert gets hard shadows.
 //!
-//! [`NonLocal::interreflection`] adds one bounce of light between parts of the draws that face
-//! each other: the same command buffer then also holds a surfel pass (each shadowed light's lit
-//! surface in a small map, [`Options::interreflection_resolution`]), which every vertex gathers.
+//! [`NonLocal::interreflection`] adds the light that leaves one part of the draws — lit side
+//! and glow alike — and enters another through the air, bounce after bounce: every mesh is cut
+//! into patches when it is created ([`Options::interreflection_patches`];
+//! [`cdrf_core::patches`]), and after the vertex terms further compute passes average each
+//! patch's exitance, pass light between the patches ([`Options::interreflection_bounces`]) and
+//! gather it at every vertex, which answers with its CDRF. It needs no light map, and serves
+//! every light.
 //!
-//! [`NonLocal::subsurface`] adds the light that entered the lit surface near each point by the
-//! table's diffusion profile (LUT format version 4; [`cdrf_core::diffusion::FarField`]): the
-//! command buffer then also renders each shadowed light's lit surface into a pyramid
-//! ([`Options::subsurface_cut_mm`], [`Options::subsurface_max_resolution`]) that every vertex
-//! gathers, and the shading subtracts what the table already holds through the osculating
-//! sphere. For a material with a profile it replaces T(d, μ).
+//! [`NonLocal::subsurface`] adds the light that entered the lit surface near each point and
+//! reached it through the medium, by the table's diffusion profile (LUT format version 4;
+//! [`cdrf_core::diffusion::FarField`]): the command buffer then also renders each shadowed
+//! light's lit surface into a pyramid ([`Options::subsurface_cut_mm`],
+//! [`Options::subsurface_max_resolution`]) that every vertex gathers, and the shading reads the
+//! table without what it already holds through the osculating sphere. For a material with a
+//! profile it replaces T(d, μ), and the penumbra of its near field is the cut's width.
 
 mod error;
 mod frame;

@@ -265,10 +265,10 @@ fn interreflection_lights_the_knot_between_its_strands() {
     );
 }
 
-/// The light that entered the knot beside, behind and above each shadow-side point: the
-/// subsurface gather in place of T(d, μ) (at 512 px: render / reference past θ = 100° from
-/// 0.12–0.19 to 0.33–0.43, whole object 25.2 % → 19.8 %, the cast shadow 0.79 → 0.74), the lit
-/// side within a few per cent.
+/// The light that entered the knot beside and behind each shadow-side point and reached it
+/// through the wax: the subsurface gather in place of T(d, μ) (at 512 px: render / reference
+/// past θ = 90° from 0.17–0.48 to 0.31–0.63, whole object 21.3 % → 16.9 %), the lit side within
+/// a few per cent.
 #[test]
 fn the_subsurface_gather_lights_the_knot_shadow_side() {
     let result = run_small_case("knot");
@@ -286,13 +286,15 @@ fn the_subsurface_gather_lights_the_knot_shadow_side() {
             before.bins[bin]
         );
     }
-    // Bins 90–100° … 130–180°: at least 1.25 × as bright, and past a third of the truth
-    // (measured at 128 px with the twelve-sphere table: 0.52 / 0.33 / 0.19 / 0.30 → 0.69 / 0.53 /
-    // 0.36 / 0.44; with the eight spheres of 15–50 mm T(d, μ) brought less, and the gain was
-    // above 1.5 ×).
+    // Bins 90–100° … 130–180°: at least 1.25 × as bright, and past 0.3 of the reference (at 128
+    // px: 0.52 / 0.33 / 0.19 / 0.30 → 0.66 / 0.49 / 0.33 / 0.40). Not more: the path-traced
+    // knot's light that travelled through the wax alone is 0.67 / 0.48 / 0.29 / 0.33 of it
+    // there (docs/research/diffusion-gather.md, third study); the rest crossed the air between
+    // the strands, which is the inter-reflection's (the gather counted some of it until
+    // 2026-12-04: 0.69 / 0.53 / 0.36 / 0.44).
     for bin in 4..8 {
         assert!(
-            after.bins[bin] > 1.25 * before.bins[bin] && after.bins[bin] > 1.0 / 3.0,
+            after.bins[bin] > 1.25 * before.bins[bin] && after.bins[bin] > 0.3,
             "shadow-side bin {bin}: {} (before {})",
             after.bins[bin],
             before.bins[bin]
@@ -306,4 +308,29 @@ fn the_subsurface_gather_lights_the_knot_shadow_side() {
         rmse(ModelName::MeasuredShadowsSubsurface),
         rmse(ModelName::MeasuredShadowsTransmission)
     );
+}
+
+/// Issue 16's targets at a size CI affords (128 px; at 512 px, `compare`: the knot 9.3 %, its
+/// second view 12.6 %): with every term the knot's and its second view's light is 0.75–1.33 ×
+/// the path-traced reference's in every θ bin and in the cast shadow, and the whole-object
+/// error is below 10 % and 15 %.
+#[test]
+fn every_term_meets_the_knot_targets() {
+    for (name, whole) in [("knot", 0.10), ("knot_view2", 0.15)] {
+        let result = run_small_case(name);
+        let ratios = result.theta.ratios(ModelName::MeasuredAll).unwrap();
+        let cast = ratios.cast_shadow;
+        println!("{name}: bins {:?}, cast shadow {cast}", ratios.bins);
+        for (bin, ratio) in ratios.bins.iter().chain([&cast]).enumerate() {
+            assert!(
+                (0.75..=1.33).contains(ratio),
+                "{name}, bin {bin} (8: the cast shadow): {ratio}"
+            );
+        }
+        let rmse = result
+            .metrics(Region::Whole, ModelName::MeasuredAll)
+            .unwrap()
+            .relative_rmse;
+        assert!(rmse < whole, "{name}: whole object {rmse}");
+    }
 }
