@@ -113,13 +113,12 @@ fn main() {
 
     // The renderer cuts each mesh into patches for the inter-reflection when it is created.
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-    let curvature_f32: Vec<f32> = curvature.iter().map(|&k| k as f32).collect();
     for target in [256, 1024] {
         let (cut, patches) = best_time(3, || {
             SurfacePatches::build(
                 &mesh.positions,
                 &mesh.normals,
-                &curvature_f32,
+                &curvature,
                 &indices,
                 target,
             )
