@@ -115,13 +115,7 @@ fn main() {
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
     for target in [256, 1024] {
         let (cut, patches) = best_time(3, || {
-            SurfacePatches::build(
-                &mesh.positions,
-                &mesh.normals,
-                &curvature,
-                &indices,
-                target,
-            )
+            SurfacePatches::build(&mesh.positions, &mesh.normals, &curvature, &indices, target)
         });
         println!(
             "SurfacePatches::build, {target} patches, {threads} threads: {:7.3} s  ({} patches)",

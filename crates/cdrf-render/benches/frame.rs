@@ -348,13 +348,13 @@ fn main() -> Result<(), Box<dyn Error>> {
                 " (goal ≤ 1.5)",
             ),
             (
-                "all (16²) / measured",
+                "all (256 patches) / measured",
                 "measured + all (256 patches)",
                 "measured",
                 " (goal ≤ 1.5)",
             ),
             (
-                "all (32²) / measured",
+                "all (512 patches) / measured",
                 "measured + all (512 patches)",
                 "measured",
                 "",
