@@ -321,43 +321,51 @@ impl MaterialFactory {
         uniforms.view_size = [view.phi_count() as f32, view.theta_count() as f32];
         uniforms.view_curvature_per_mm = [view_layers.min_per_mm, view_layers.max_per_mm];
         uniforms.view_layers = view_layers.count as f32;
-        let (sphere_texture, gain_texture) = match &subsurface {
-            Some(tables) => (
+        // What pipelines that may gather read in the LUT's place: its rows, then the rows of
+        // its near field f − F_sphere (the LUT again without a diffusion profile), so a light
+        // takes one read whichever it needs.
+        let near_texture = match lut {
+            Some(lut) => {
+                let mut rows = lut.radiance().to_vec();
+                match &subsurface {
+                    Some(tables) => rows.extend_from_slice(&tables.near),
+                    None => rows.extend_from_slice(lut.radiance()),
+                }
                 self.upload_table(
                     device,
                     queue,
-                    "cdrf subsurface near field",
-                    tables.sphere_columns,
-                    tables.sphere_rows,
-                    &tables.near,
-                )?,
-                self.upload_table(
-                    device,
-                    queue,
-                    "cdrf subsurface gain",
-                    tables.sphere_columns,
-                    tables.sphere_rows,
-                    &tables.gain,
-                )?,
-            ),
-            None => (
-                self.upload_table(
-                    device,
-                    queue,
-                    "cdrf subsurface near field (unused)",
-                    1,
-                    1,
-                    &[Vec3::ZERO],
-                )?,
-                self.upload_table(
-                    device,
-                    queue,
-                    "cdrf subsurface gain (unused)",
-                    1,
-                    1,
-                    &[Vec3::ONE],
-                )?,
-            ),
+                    "cdrf table and near field",
+                    lut.theta_count(),
+                    2 * lut.curvature_axis().count,
+                    &rows,
+                )?
+            }
+            None => self.upload_table(
+                device,
+                queue,
+                "cdrf table and near field (unused)",
+                1,
+                1,
+                &[Vec3::ZERO],
+            )?,
+        };
+        let gain_texture = match &subsurface {
+            Some(tables) => self.upload_table(
+                device,
+                queue,
+                "cdrf subsurface gain",
+                tables.sphere_columns,
+                tables.sphere_rows,
+                &tables.gain,
+            )?,
+            None => self.upload_table(
+                device,
+                queue,
+                "cdrf subsurface gain (unused)",
+                1,
+                1,
+                &[Vec3::ONE],
+            )?,
         };
 
         if let Some(table) = environment_zonal_table(desc, lut, options) {
@@ -381,7 +389,7 @@ impl MaterialFactory {
         });
         let lut_view = lut_texture.create_view(&Default::default());
         let view_view = view_texture.create_view(&Default::default());
-        let sphere_view = sphere_texture.create_view(&Default::default());
+        let near_view = near_texture.create_view(&Default::default());
         let gain_view = gain_texture.create_view(&Default::default());
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cdrf material"),
@@ -405,7 +413,7 @@ impl MaterialFactory {
                 },
                 wgpu::BindGroupEntry {
                     binding: 4,
-                    resource: wgpu::BindingResource::TextureView(&sphere_view),
+                    resource: wgpu::BindingResource::TextureView(&near_view),
                 },
                 wgpu::BindGroupEntry {
                     binding: 5,
