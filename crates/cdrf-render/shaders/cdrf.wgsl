@@ -59,12 +59,12 @@
 // a Lambertian disc of its area A and exitance M (exact on its axis, 1/d² far away, the disc's
 // area as the point sees it saturating the 1/d² near it), E⊥ = M · A cos θ_e / (π d² + A cos θ_e),
 // cos θ_e measured above e's plane less its sagitta (a convex patch does not light its own
-// surface), with no visibility test; the point answers with its
-// CDRF as to a small light in e's direction, E⊥/π · f(κ, θ_ω), θ_ω past 90° included (light
-// entering the point's part beside it), f from its zonal expansion at the point's mean
-// curvature (zonal_value: no texture read per emitter), and the sum times the view correction
-// of light along the normal, g(0, φ), as the environment light's. On a convex object no
-// emitter lies in front of another's surface: the term is zero there.
+// surface), with no visibility test; the point answers with its CDRF as to a small light in
+// e's direction, E⊥/π · f(κ, θ_ω), θ_ω past 90° included (light entering the point's part
+// beside it), f from its zonal expansion at the point's mean curvature (zonal_value: no texture
+// read per emitter), and the sum times the view correction of light along the normal, g(0, φ),
+// as the environment light's. On a convex object no emitter lies in front of another's
+// surface: the term is zero there.
 //
 // Subsurface gather (SUBSURFACE; see cdrf-core's diffusion::FarField). The light that entered
 // the lit surface near a point — beside it, behind it — and reached it through the medium
@@ -1534,7 +1534,7 @@ fn light_share(
     cos_theta: f32,
     theta: f32,
     curvature_per_mm: f32,
-    terms_in: NonLocalTerms,
+    terms: NonLocalTerms,
 ) -> LightShare {
     let shadowed = (SHADOWS || TRANSMISSION || SUBSURFACE) && index < shadows.light_count;
     var f: vec3<f32>;
@@ -1555,7 +1555,6 @@ fn light_share(
     var through = vec3<f32>(0.0);
     var through_scale = incidence.irradiance;
     if shadowed {
-        var terms = terms_in;
         if gathers_subsurface() {
             through_scale = frame.lights[index].irradiance_or_intensity;
         }
@@ -1835,8 +1834,8 @@ fn subsurface_gather_face(
     let levels = shadows.subsurface_levels;
     var sum = vec3<f32>(0.0);
     for (var level = 0u; level < levels; level++) {
-        let size = i32(shadows.subsurface_resolution >> level);
         let resolution = shadows.subsurface_resolution >> level;
+        let size = i32(resolution);
         let centre = uv * f32(size);
         let coarsest = level + 1u == levels;
         var first = vec2<i32>(floor(centre - 2.0 * SUBSURFACE_LEVEL_REACH));
@@ -1915,14 +1914,13 @@ struct LightViewOut {
     // The light's frame (light_frame_point), mm, and the normal in it.
     @location(0) light_position_mm: vec3<f32>,
     @location(1) light_normal: vec3<f32>,
-    @location(2) curvature_per_mm: f32,
-    @location(3) @interpolate(flat) light: u32,
+    @location(2) @interpolate(flat) light: u32,
     // Face of a perspective light (0 for orthographic ones).
-    @location(4) @interpolate(flat) face: u32,
+    @location(3) @interpolate(flat) face: u32,
 }
 
-// The light-view pass (the subsurface map): the draws seen from face `face` of
-// shadowed light `light` (the instance index is light · MAX_SHADOW_FACES + face), in the shadow
+// The light-view pass (the subsurface map): the draws seen from face `face` of shadowed light
+// `light` (the instance index is light · MAX_SHADOW_FACES + face), in the shadow
 // map's square or frustum.
 @vertex
 fn vs_light_view(vertex: VertexIn, @builtin(instance_index) instance: u32) -> LightViewOut {
@@ -1951,7 +1949,6 @@ fn vs_light_view(vertex: VertexIn, @builtin(instance_index) instance: u32) -> Li
     out.light_position_mm = light_frame_point(light, world);
     let normal = world_normal_of(vertex.normal);
     out.light_normal = light_frame_vector(light, normal);
-    out.curvature_per_mm = vertex.curvature_per_mm * draw.curvature_scale;
     out.light = light;
     out.face = face;
     return out;
@@ -1987,27 +1984,4 @@ fn fs_subsurface_map(in: LightViewOut) -> @location(0) vec4<f32> {
     let mu = max(texel.cos_theta, 0.1);
     let flux = texel.area * pow(mu, material.subsurface_entry_cosine_power - 1.0);
     return vec4<f32>(in.light_position_mm * flux, flux);
-}
-
-// A unit vector as two numbers in [−1, 1] (octahedral mapping), and back.
-fn octahedral_encode(n: vec3<f32>) -> vec2<f32> {
-    let p = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
-    if n.z >= 0.0 {
-        return p;
-    }
-    return (vec2<f32>(1.0) - abs(p.yx)) * sign_not_zero(p);
-}
-
-fn octahedral_decode(e: vec2<f32>) -> vec3<f32> {
-    let z = 1.0 - abs(e.x) - abs(e.y);
-    var xy = e;
-    if z < 0.0 {
-        xy = (vec2<f32>(1.0) - abs(e.yx)) * sign_not_zero(e);
-    }
-    return normalize(vec3<f32>(xy, z));
-}
-
-// ±1 per component (+1 at zero).
-fn sign_not_zero(v: vec2<f32>) -> vec2<f32> {
-    return select(vec2<f32>(-1.0), vec2<f32>(1.0), v >= vec2<f32>(0.0));
 }

@@ -3,8 +3,8 @@
 //! the draws, or a cube of six when the light is among them), the depth-only shadow pass that
 //! renders their maps, per face of each light the subsurface pyramid (the light entering the lit
 //! surface, for the subsurface gather), and the bind group (group 3) through which the shading
-//! pipelines read them. (The inter-reflection needs no light map: see `interreflection`.) What the shader does with the maps is
-//! documented at the top of `shaders/cdrf.wgsl`.
+//! pipelines read them. (The inter-reflection needs no light map: see `interreflection`.) What
+//! the shader does with the maps is documented at the top of `shaders/cdrf.wgsl`.
 
 use std::collections::HashMap;
 
@@ -167,13 +167,13 @@ impl SubsurfacePyramid {
             record_light_view(
                 encoder,
                 "cdrf subsurface map",
-                &[level0],
+                level0,
                 &self.depth,
                 face.instance(),
                 casters,
                 bindings,
                 light_view_bind_group,
-                |_| Some(pipeline),
+                pipeline,
             );
             for (coarser, group) in views.iter().skip(1).zip(groups) {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -559,26 +559,24 @@ impl ShadowMaps {
     }
 }
 
-/// Renders the casters as a face of a shadowed light sees them (`vs_light_view`, `instance` names
-/// the light and the face: [`LightFace::instance`]) into `targets`, cleared to zero (no
-/// surface), with `depth` cleared as the depth buffer; `pipeline` gives each caster's pipeline
-/// (`None`: it is left out).
+/// Renders the casters with `pipeline` as a face of a shadowed light sees them
+/// (`vs_light_view`, `instance` names the light and the face: [`LightFace::instance`]) into
+/// `target`, cleared to zero (no surface), with `depth` cleared as the depth buffer.
 #[allow(clippy::too_many_arguments)]
-fn record_light_view<'a>(
+fn record_light_view(
     encoder: &mut wgpu::CommandEncoder,
     label: &'static str,
-    targets: &[&wgpu::TextureView],
+    target: &wgpu::TextureView,
     depth: &wgpu::TextureView,
     instance: u32,
-    casters: &[ShadowCaster<'a>],
+    casters: &[ShadowCaster<'_>],
     bindings: &LightViewBindings<'_>,
     pass_bind_group: &wgpu::BindGroup,
-    pipeline: impl Fn(&ShadowCaster<'a>) -> Option<&'a wgpu::RenderPipeline>,
+    pipeline: &wgpu::RenderPipeline,
 ) {
-    let attachments: Vec<_> = targets.iter().map(|view| cleared_target(view)).collect();
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(label),
-        color_attachments: &attachments,
+        color_attachments: &[cleared_target(target)],
         depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
             view: depth,
             depth_ops: Some(wgpu::Operations {
@@ -591,13 +589,10 @@ fn record_light_view<'a>(
         occlusion_query_set: None,
         multiview_mask: None,
     });
+    pass.set_pipeline(pipeline);
     pass.set_bind_group(0, bindings.frame, &[]);
     pass.set_bind_group(3, pass_bind_group, &[]);
     for caster in casters {
-        let Some(pipeline) = pipeline(caster) else {
-            continue;
-        };
-        pass.set_pipeline(pipeline);
         pass.set_bind_group(1, caster.material, &[]);
         pass.set_bind_group(2, bindings.draws, &[caster.draw_offset]);
         pass.set_vertex_buffer(0, caster.mesh.vertices.slice(..));
