@@ -1341,8 +1341,17 @@ fn non_local_terms(
     // the occluder.
     var through_weight = vec3<f32>(0.0);
     var through_mm = 0.0;
-    var through_entry_cosine = -1.0;
-    var thin = vec3<f32>(0.0);
+    // The first occluded column (its entry cosine is read after the loop), and whether the
+    // centre column shows a part thinner than the local shape (read after the loop too).
+    // Nothing that reads the map beyond a tap's own texel stays inside the loop: lavapipe runs
+    // a branch's code for every tap even where no invocation takes it (the centre's and the
+    // first occluded column's slope reads, inside the loop, were two thirds of every term's
+    // tap cost on the bunny).
+    var first_occluded = Column(vec2<i32>(-1), 0u, 0.0);
+    var centre_column = Column(vec2<i32>(-1), 0u, 0.0);
+    var centre_lit = false;
+    var centre_expected_mm = 0.0;
+    var centre_tolerance_mm = 0.0;
     var counted = 0u;
     var lit = 0u;
     // Every tap is read: skipping the rest where a few probes agree made neighbouring vertices
@@ -1378,37 +1387,48 @@ fn non_local_terms(
         if occluder < expected - tolerance {
             through_weight += weight;
             through_mm += tap_depth - occluder;
-            // The entry cosine at the first occluded column only: read at every occluded
-            // column instead, the torus's errors against path tracing moved by ≤ 1.6 points
-            // (cast shadow 111.5 % instead of 109.9 %).
-            if transmits && through_entry_cosine < 0.0 {
-                through_entry_cosine =
-                    entry_cosine(column.layer, column.texel, texel_mm, depth_range_mm);
+            if counted == lit + 1u {
+                first_occluded = column;
             }
         } else {
             unoccluded += weight;
             lit += 1u;
-            if k == 0u && transmits && n_along > 0.0 {
-                thin = thin_part_transmission(
-                    column.layer,
-                    column.texel,
-                    p_depth - occluder,
-                    p_depth - expected - tolerance,
-                    texel_mm,
-                    depth_range_mm,
-                );
+            if k == 0u {
+                centre_lit = true;
+                centre_column = column;
+                centre_expected_mm = expected;
+                centre_tolerance_mm = tolerance;
             }
         }
     }
     var terms: NonLocalTerms;
     terms.visibility = unoccluded / weights;
-    terms.transmission = thin * smoothstep(0.0, THIN_PART_FADE_END, n_along);
+    terms.transmission = vec3<f32>(0.0);
+    if transmits && centre_lit && n_along > 0.0 {
+        terms.transmission = smoothstep(0.0, THIN_PART_FADE_END, n_along)
+            * thin_part_transmission(
+                centre_column.layer,
+                centre_column.texel,
+                p_depth - centre_column.first_surface_mm,
+                p_depth - centre_expected_mm - centre_tolerance_mm,
+                texel_mm,
+                depth_range_mm,
+            );
+    }
     if SHADOWS && transmits && counted > lit {
-        // Light through the occluders, at their mean thickness and entry cosine (one T per
-        // light).
+        // Light through the occluders, at their mean thickness and at the entry cosine of the
+        // first occluded column (one T per light; read at every occluded column instead, the
+        // torus's errors against path tracing moved by ≤ 1.6 points: cast shadow 111.5 %
+        // instead of 109.9 %).
         let occluded = f32(counted - lit);
+        let entry = entry_cosine(
+            first_occluded.layer,
+            first_occluded.texel,
+            texel_mm,
+            depth_range_mm,
+        );
         terms.transmission += through_weight / weights
-            * transmission_profile(through_mm / occluded, through_entry_cosine);
+            * transmission_profile(through_mm / occluded, entry);
     }
     return terms;
 }
