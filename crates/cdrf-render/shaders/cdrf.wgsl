@@ -1852,10 +1852,18 @@ fn subsurface_gather_face(
     let layer = i32(shadows.lights[index].first_layer + face);
     let p = shape.point;
     let levels = shadows.subsurface_levels;
+    // The light's projection, read once: per texel, both projections' rays and texel widths
+    // are computed and one selected (lavapipe runs both sides of a branch anyway, and each
+    // read of the light's fields inside the loop was a gather per invocation).
+    let orthographic = shadows.lights[index].projection == SHADOW_ORTHOGRAPHIC;
+    let half_extent = shadows.lights[index].half_extent;
     var sum = vec3<f32>(0.0);
     for (var level = 0u; level < levels; level++) {
         let resolution = shadows.subsurface_resolution >> level;
         let size = i32(resolution);
+        // texel_width_of at this level: this times the depth (perspective) or the frame's
+        // unit (orthographic).
+        let texel_width_per_depth = 2.0 * half_extent / f32(resolution);
         let centre = uv * f32(size);
         let coarsest = level + 1u == levels;
         var first = vec2<i32>(floor(centre - 2.0 * SUBSURFACE_LEVEL_REACH));
@@ -1892,8 +1900,16 @@ fn subsurface_gather_face(
                 }
                 // The texel's flux at its mean position.
                 let q = texel_sum.xyz / texel_sum.w;
-                let tolerance = max(SUBSURFACE_AIR_TOLERANCE_MM, texel_width_of(index, q, resolution));
-                share *= through_medium(index, shape, q, tolerance);
+                let distance_from_light = length(q);
+                let ray = select(
+                    q / max(distance_from_light, 1e-6),
+                    vec3<f32>(0.0, 0.0, 1.0),
+                    orthographic,
+                );
+                let texel_mm = texel_width_per_depth
+                    * select(distance_from_light, shadows.mm_per_world_unit, orthographic);
+                let tolerance = max(SUBSURFACE_AIR_TOLERANCE_MM, texel_mm);
+                share *= through_medium(ray, shape, q, tolerance);
                 sum += share * texel_sum.w * subsurface_kernel_value(distance(p, q));
             }
         }
@@ -1910,8 +1926,8 @@ fn subsurface_gather_face(
 // q's column: the sphere's near side (none where the ray misses it), or the tangent plane
 // where it faces the light.
 const SUBSURFACE_AIR_TOLERANCE_MM: f32 = 1.0;
-fn through_medium(index: u32, shape: LocalShape, q: vec3<f32>, tolerance_mm: f32) -> f32 {
-    let ray = light_ray(index, q);
+// `ray`: the unit vector along the light's rays at q (light_ray).
+fn through_medium(ray: vec3<f32>, shape: LocalShape, q: vec3<f32>, tolerance_mm: f32) -> f32 {
     var ahead = -1e30;
     if shape.curved {
         let v = q - shape.centre;
