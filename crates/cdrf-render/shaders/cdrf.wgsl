@@ -1866,8 +1866,10 @@ fn subsurface_gather_face(
         let texel_width_per_depth = 2.0 * half_extent / f32(resolution);
         let centre = uv * f32(size);
         let coarsest = level + 1u == levels;
-        var first = vec2<i32>(floor(centre - 2.0 * SUBSURFACE_LEVEL_REACH));
-        var count = i32(4.0 * SUBSURFACE_LEVEL_REACH) + 1;
+        // The texels whose centres lie within 2·SUBSURFACE_LEVEL_REACH of the point along each
+        // axis (any other has ρ at least that, and share 0): 4·REACH per side.
+        var first = vec2<i32>(floor(centre - 2.0 * SUBSURFACE_LEVEL_REACH - 0.5)) + 1;
+        var count = i32(4.0 * SUBSURFACE_LEVEL_REACH);
         if coarsest {
             first = vec2<i32>(0);
             count = size;
