@@ -753,17 +753,21 @@ fn gathered_light(receiver: Receiver, skip: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     let count = arrayLength(&emitters);
     for (var k = 0u; k < count; k++) {
-        let e = emitters[k];
-        let from_emitter = receiver.position_mm - e.position_mm;
-        let height = dot(e.normal, from_emitter) - e.sagitta_mm;
-        if k == skip || height <= 0.0 || !(e.area_mm2 > 0.0) {
+        // Only the fields the sum needs, each read on its own: lavapipe reads a storage buffer
+        // at a loop's index invocation by invocation, and the whole emitter's 15 floats cost
+        // about 2 ms more per frame on the bunny than these 11.
+        let e = &emitters[k];
+        let from_emitter = receiver.position_mm - (*e).position_mm;
+        let height = dot((*e).normal, from_emitter) - (*e).sagitta_mm;
+        let area_mm2 = (*e).area_mm2;
+        if k == skip || height <= 0.0 || !(area_mm2 > 0.0) {
             continue;
         }
         let d2 = dot(from_emitter, from_emitter);
         let d = sqrt(d2);
         // The disc's area seen from the point, A cos θ_e, saturates its 1/d² near it.
-        let seen_mm2 = e.area_mm2 * height / d;
-        let facing = e.exitance * (seen_mm2 / (PI * d2 + seen_mm2));
+        let seen_mm2 = area_mm2 * height / d;
+        let facing = (*e).exitance * (seen_mm2 / (PI * d2 + seen_mm2));
         sum += facing * zonal_value(response, -dot(receiver.normal, from_emitter) / d);
     }
     return sum;
