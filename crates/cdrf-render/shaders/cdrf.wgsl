@@ -87,9 +87,9 @@
 // point's irradiance (under a point light the light entered where the irradiance is not this
 // point's). The subsurface map pass (fs_subsurface_map) renders each face's first surface
 // into level 0 of a pyramid (Φ·position, Φ), fine enough that ℓ_c spans 1.5 texels; each
-// level sums 2 × 2 of the one below. Each vertex reads 13 × 13 texels of every level around
+// level sums 2 × 2 of the one below. Each vertex reads 12 × 12 texels of every level around
 // its own position on the face, weighted by a partition of unity in distance (level L covers
-// 1.5–6 of its texels, fading in and out smoothly), and the coarsest level whole: ~900 reads
+// 1.5–6 of its texels, fading in and out smoothly), and the coarsest level whole: ~800 reads
 // per face whatever the map's size, and a continuous function of the point (no texel switches
 // on or off at a step), so interpolating it between vertices cannot blotch. A cube's six faces
 // are each read around the point's projection on them (their fine levels only where that
