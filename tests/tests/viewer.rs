@@ -11,6 +11,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use cdrf_core::image_file::linear_to_srgb;
+use cdrf_core::light::NonLocal;
+use cdrf_core::specular::{DEFAULT_IOR, DEFAULT_ROUGHNESS_ALPHA, SpecularLayer};
 use cdrf_tests::data_dir;
 use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
 use cdrf_viewer::app::BACKGROUND;
@@ -31,14 +33,31 @@ const TOLERANCE: Tolerance = Tolerance {
     max_flip_fraction_above_0_1: 0.0005,
 };
 
+/// The bunny scene (the poster's model alone, no sky) with the specular layer: what the
+/// snapshots below compare models on.
 fn startup_files() -> StartupFiles {
     let data = data_dir();
-    StartupFiles::from_scene(&data.join("scenes/bunny.toml"), &data.join("wax-fit"))
-        .unwrap_or_else(|error| panic!("{error}"))
+    let mut files =
+        StartupFiles::from_scene(&data.join("scenes/bunny.toml"), &data.join("wax-fit"))
+            .unwrap_or_else(|error| panic!("{error}"));
+    files.specular = Some(SpecularLayer::new(DEFAULT_ROUGHNESS_ALPHA, DEFAULT_IOR).unwrap());
+    files
 }
 
-/// The viewer on bundled data in a kittest harness at `pixels_per_point`, timings hidden.
+/// The viewer on the bunny scene, side by side, in a kittest harness at `pixels_per_point`,
+/// timings hidden.
 fn harness_at(pixels_per_point: f32) -> Harness<'static, ViewerApp> {
+    harness_with(&startup_files(), pixels_per_point, |settings| {
+        settings.compare = Compare::SideBySide;
+    })
+}
+
+/// The viewer on `files` in a kittest harness, timings hidden, after `adjust`.
+fn harness_with(
+    files: &StartupFiles,
+    pixels_per_point: f32,
+    adjust: impl FnOnce(&mut cdrf_viewer::app::Settings),
+) -> Harness<'static, ViewerApp> {
     // kittest's setup (software adapters first) on the viewer's backends: no OpenGL, where
     // the viewer's shaders do not compile.
     let mut setup = default_wgpu_setup();
@@ -46,8 +65,9 @@ fn harness_at(pixels_per_point: f32) -> Harness<'static, ViewerApp> {
         create.instance_descriptor.backends = cdrf_render::headless::SUPPORTED_BACKENDS;
     }
     let render_state = create_render_state(setup, egui_wgpu::RendererOptions::PREDICTABLE);
-    let mut app = ViewerApp::new(&render_state, &startup_files());
+    let mut app = ViewerApp::new(&render_state, files);
     app.settings_mut().show_timings = false;
+    adjust(app.settings_mut());
     assert_eq!(app.error(), None, "the bundled data loads");
     let mut harness = Harness::builder()
         .with_size(SIZE)
@@ -109,10 +129,34 @@ fn object_bounds_in(
     bounds
 }
 
+/// What the viewer opens on: one view of the bundled wax with every non-local term, the
+/// specular layer and a sky, on the bunny with its curvature smoothed.
 #[test]
-fn default_layout_shows_measured_beside_gaussian() {
+fn opening_view_is_the_renderer_at_its_best() {
+    let files = StartupFiles::bundled().unwrap_or_else(|error| panic!("{error}"));
+    let mut harness = harness_with(&files, 1.0, |_| {});
+    let settings = harness.state().settings();
+    assert_eq!(settings.compare, Compare::Single);
+    assert_eq!(settings.non_local, NonLocal::ALL);
+    assert!(settings.specular && settings.sky_radiance > 0.0);
+    assert!(settings.curvature_smoothing > 0);
+    let opening = render(&mut harness);
+    assert!(object_bounds(&opening, 1.0).is_some(), "the bunny is drawn");
+    assert_golden("viewer_opening", &opening, TOLERANCE);
+
+    // The poster's model is one click away.
+    harness.get_by_label("poster's model").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().settings().non_local, NonLocal::OFF);
+    let poster = render(&mut harness);
+    let changed = changed_pixels(&opening, &poster);
+    println!("pixels the non-local terms change: {changed}");
+    assert!(changed > 10_000, "{changed} pixels changed");
+}
+
+#[test]
+fn side_by_side_shows_measured_beside_gaussian() {
     let mut harness = harness();
-    assert_eq!(harness.state().settings().compare, Compare::SideBySide);
     let image = render(&mut harness);
     // The composite encodes sRGB on this non-sRGB target: the background (linear 0.012 → sRGB
     // 29; left linear it would be 3) comes out as the sRGB value.
@@ -126,7 +170,7 @@ fn default_layout_shows_measured_beside_gaussian() {
         );
     }
     assert!(object_bounds(&image, 1.0).is_some(), "the bunny is drawn");
-    assert_golden("viewer_default", &image, TOLERANCE);
+    assert_golden("viewer_side_by_side", &image, TOLERANCE);
 }
 
 #[test]
@@ -454,4 +498,28 @@ fn textured_gltf_drop_shows_its_materials() {
     println!("pixels changed by the asset's textures: {by_textures}");
     assert!(by_textures > 5000, "{by_textures}");
     assert_golden("viewer_textured", &textured, TOLERANCE);
+}
+
+/// The material picker swaps the bundled fit for a preset medium's table (computed on the
+/// spot) and says that such a table has no diffusion profile for the subsurface gather.
+#[test]
+fn material_picker_loads_a_preset_and_warns_about_its_missing_profile() {
+    let files = StartupFiles::bundled().unwrap_or_else(|error| panic!("{error}"));
+    let mut harness = harness_with(&files, 1.0, |_| {});
+    let wax = render(&mut harness);
+    harness.get_by_label("material").click();
+    harness.run_steps(2);
+    harness.get_by_label("Marble").click();
+    harness.run_steps(3);
+    assert_eq!(harness.state().error(), None);
+    assert!(
+        harness
+            .query_by_label_contains("no diffusion profile")
+            .is_some(),
+        "the gather's fallback is said"
+    );
+    let marble = render(&mut harness);
+    let changed = changed_pixels(&wax, &marble);
+    println!("pixels the material changes: {changed}");
+    assert!(changed > 10_000, "{changed} pixels changed");
 }

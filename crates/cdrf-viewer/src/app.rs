@@ -6,17 +6,20 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use cdrf_core::environment::{Environment, EnvironmentRadiance, ShCoefficients};
+use cdrf_core::gaussian_file::GaussianParameters;
 use cdrf_core::glam::{Mat3, Mat4, Vec2, Vec3};
 use cdrf_core::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
 use cdrf_core::specular::{DEFAULT_IOR, DEFAULT_ROUGHNESS_ALPHA, SpecularLayer};
 use cdrf_core::{Cdrf, Filter};
+use cdrf_fit::preset::{Preset, PresetSettings, fit_gaussian_to_lut, preset_names};
 use cdrf_render::{
     ENVIRONMENT_SH_ORDER, MaterialDesc, MaterialId, MeshDesc, MeshId, SurfaceDesc, SurfaceId,
 };
 use egui::{Color32, RichText};
 
 use crate::assets::{
-    Asset, LoadedEnvironment, LoadedGaussian, LoadedLut, LoadedMesh, StartupFiles, load_fit_folder,
+    Asset, LoadedEnvironment, LoadedGaussian, LoadedLut, LoadedMesh, StartupFiles,
+    bundled_data_dir, load_fit_folder,
 };
 use crate::camera::OrbitCamera;
 use crate::gpu::{Layout, ViewCallback, ViewerGpu, slot_size_pixels};
@@ -74,9 +77,11 @@ impl LightKind {
     }
 }
 
-/// How the two models share the 3D view.
+/// How the models share the 3D view.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Compare {
+    /// The left model (A) alone, filling the view.
+    Single,
     /// Two halves, the same camera.
     SideBySide,
     /// One view, a draggable line between the models.
@@ -94,6 +99,8 @@ pub struct Settings {
     pub models: [Model; 2],
     /// Show per-vertex curvature instead of shading.
     pub curvature_view: bool,
+    /// Rounds of curvature smoothing for meshes loaded from now on.
+    pub curvature_smoothing: u32,
     /// Split line position, fraction of the view width.
     pub split: f32,
     /// Radiance difference shown at full colour.
@@ -120,7 +127,8 @@ pub struct Settings {
     /// Show wall-clock timings (frame interval, Gaussian table build). Snapshot tests turn
     /// them off: they differ from run to run.
     pub show_timings: bool,
-    /// Cast shadows and transmission (both models).
+    /// The non-local terms (both models): [`NonLocal::ALL`] is the renderer at its best,
+    /// [`NonLocal::OFF`] the poster's model.
     pub non_local: NonLocal,
     /// What kind of light the light controls place.
     pub light_kind: LightKind,
@@ -295,9 +303,10 @@ impl ViewerApp {
     pub fn new(render_state: &egui_wgpu::RenderState, files: &StartupFiles) -> Self {
         ViewerGpu::install(render_state);
         let mut settings = Settings {
-            compare: Compare::SideBySide,
+            compare: Compare::Single,
             models: [Model::Measured, Model::Gaussian],
             curvature_view: false,
+            curvature_smoothing: files.curvature_smoothing,
             split: 0.5,
             difference_range: 0.2,
             mm_per_unit: files.mm_per_unit,
@@ -314,10 +323,12 @@ impl ViewerApp {
             light_kind: LightKind::Directional,
             light_distance_mm: 150.0,
             textures: true,
-            specular: true,
-            specular_roughness: DEFAULT_ROUGHNESS_ALPHA,
-            ior: DEFAULT_IOR,
-            sky_radiance: 0.0,
+            specular: files.specular.is_some(),
+            specular_roughness: files
+                .specular
+                .map_or(DEFAULT_ROUGHNESS_ALPHA, |layer| layer.roughness_alpha()),
+            ior: files.specular.map_or(DEFAULT_IOR, |layer| layer.ior()),
+            sky_radiance: files.sky_radiance,
             environment_intensity: 1.0,
             environment_rotate_deg: 0.0,
         };
@@ -342,7 +353,7 @@ impl ViewerApp {
             applied: Applied::default(),
         };
         let mut errors = Vec::new();
-        match LoadedMesh::load(&files.mesh) {
+        match LoadedMesh::load(&files.mesh, files.curvature_smoothing) {
             Ok(mesh) => app.set_mesh(mesh, Some(files.mm_per_unit)),
             Err(error) => errors.push(error.to_string()),
         }
@@ -380,7 +391,7 @@ impl ViewerApp {
     /// Opens a file or fit folder (as the file dialog and drag-and-drop do). Failures are
     /// shown in the UI; the previous data stays.
     pub fn open(&mut self, path: &Path) {
-        match Asset::load(path) {
+        match Asset::load(path, self.settings.curvature_smoothing) {
             Ok(asset) => {
                 self.error = None;
                 self.apply(asset);
@@ -650,6 +661,7 @@ impl ViewerApp {
             return Layout::Single;
         }
         match self.settings.compare {
+            Compare::Single => Layout::Single,
             Compare::SideBySide => Layout::SideBySide,
             Compare::Split => Layout::Split,
             Compare::Difference => Layout::Difference,
@@ -727,14 +739,25 @@ impl ViewerApp {
         ui.label(RichText::new("…or drop files or a fit folder on the window").weak());
         ui.separator();
 
+        ui.heading("Model");
+        self.look_buttons(ui);
+        self.material_picker(ui);
+        ui.separator();
+
         ui.heading("Compare");
         ui.horizontal(|ui| {
             let compare = &mut self.settings.compare;
+            ui.selectable_value(compare, Compare::Single, "one");
             ui.selectable_value(compare, Compare::SideBySide, "side by side");
             ui.selectable_value(compare, Compare::Split, "split");
             ui.selectable_value(compare, Compare::Difference, "difference");
         });
-        for (index, side) in ["left", "right"].into_iter().enumerate() {
+        let sides = if self.settings.compare == Compare::Single {
+            &["shown"][..]
+        } else {
+            &["left", "right"][..]
+        };
+        for (index, &side) in sides.iter().enumerate() {
             egui::ComboBox::from_label(side)
                 .selected_text(self.settings.models[index].label())
                 .show_ui(ui, |ui| {
@@ -940,6 +963,80 @@ impl ViewerApp {
                 }
             };
             self.applied.environment = Some((key, sh));
+        }
+    }
+
+    /// The two looks one click apart: every non-local term, or the poster's model alone.
+    fn look_buttons(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal(|ui| {
+            let non_local = &mut self.settings.non_local;
+            ui.selectable_value(non_local, NonLocal::ALL, "every term")
+                .on_hover_text("The measured table with cast shadows, transmission, inter-reflection and the subsurface gather");
+            ui.selectable_value(non_local, NonLocal::OFF, "poster's model")
+                .on_hover_text("The measured table alone: a local CDRF, as in Okamoto et al. 2014");
+        });
+        let no_profile = self
+            .lut
+            .as_ref()
+            .is_some_and(|lut| lut.lut.diffusion_profile().is_none());
+        if self.settings.non_local.subsurface && no_profile {
+            ui.label(
+                RichText::new("this table has no diffusion profile: no subsurface gather (transmission instead)")
+                    .color(ui.visuals().warn_fg_color),
+            );
+        }
+    }
+
+    /// Picks the measured table: the bundled fit, or a preset medium (cdrf-preset's tables,
+    /// computed on first use).
+    fn material_picker(&mut self, ui: &mut egui::Ui) {
+        let current = self
+            .lut
+            .as_ref()
+            .map_or("—".to_owned(), |lut| material_name(&lut.path));
+        let mut picked: Option<String> = None;
+        egui::ComboBox::from_label("material")
+            .selected_text(current.clone())
+            .show_ui(ui, |ui| {
+                for name in std::iter::once(BUNDLED_MATERIAL).chain(preset_names()) {
+                    if ui.selectable_label(current == name, name).clicked() {
+                        picked = Some(name.to_owned());
+                    }
+                }
+            })
+            .response
+            .on_hover_text("The bundled fit to the wax photographs, or a medium's table computed from its scattering coefficients (cdrf-preset)");
+        if let Some(name) = picked.filter(|name| *name != current) {
+            self.pick_material(&name);
+        }
+    }
+
+    fn pick_material(&mut self, name: &str) {
+        if name == BUNDLED_MATERIAL {
+            self.open(&bundled_data_dir().join("wax-fit"));
+            return;
+        }
+        let made = Preset::named(name).and_then(|preset| {
+            let lut = preset.build_lut(&PresetSettings::default())?;
+            let gaussian = fit_gaussian_to_lut(&lut)?;
+            Ok((lut, gaussian))
+        });
+        match made {
+            Ok((lut, gaussian)) => {
+                let path = PathBuf::from(format!("{PRESET_PREFIX}{name}"));
+                self.error = None;
+                self.set_gaussian(LoadedGaussian {
+                    path: path.clone(),
+                    parameters: GaussianParameters {
+                        sigma_mm: gaussian.sigma_mm(),
+                        scale: gaussian.scale(),
+                        view_correction_from: None,
+                    },
+                    view_correction: lut.view_correction().clone(),
+                });
+                self.set_lut(LoadedLut { path, lut });
+            }
+            Err(error) => self.error = Some(format!("preset {name}: {error}")),
         }
     }
 
@@ -1197,11 +1294,43 @@ impl ViewerApp {
             slot_points,
             &self.missing(),
         );
+        if self.settings.show_timings {
+            self.frame_time_overlay(ui, rect);
+        }
         if self.settings.curvature_view
             && let Some(mesh) = &self.mesh
         {
             let range = mesh.curvature_view_range_per_mm(self.settings.mm_per_unit);
             panels::curvature_legend(ui, rect, range);
+        }
+    }
+
+    /// The frame time in the view's lower right corner; a click starts or stops repainting
+    /// continuously (the time between frames means nothing otherwise).
+    fn frame_time_overlay(&mut self, ui: &mut egui::Ui, rect: egui::Rect) {
+        let text = match self
+            .frame_times
+            .mean_ms()
+            .filter(|_| self.settings.continuous)
+        {
+            Some(ms) => format!("{ms:.1} ms per frame ({:.0} fps)", 1e3 / ms),
+            None => "frame time: click to repaint continuously".to_owned(),
+        };
+        let size = egui::vec2(300.0, 20.0);
+        let area =
+            egui::Rect::from_min_size(rect.right_bottom() - size - egui::vec2(8.0, 6.0), size);
+        let label = egui::Label::new(RichText::new(text).weak()).sense(egui::Sense::click());
+        let response = ui
+            .scope_builder(
+                egui::UiBuilder::new()
+                    .max_rect(area)
+                    .layout(egui::Layout::right_to_left(egui::Align::Center)),
+                |ui| ui.add(label),
+            )
+            .inner;
+        if response.clicked() {
+            self.settings.continuous = !self.settings.continuous;
+            self.frame_times = FrameTimes::default();
         }
     }
 
@@ -1316,6 +1445,23 @@ impl ViewerApp {
             theta_rad: normal.dot(self.settings.to_light()).clamp(-1.0, 1.0).acos(),
             phi_rad: normal.dot(to_eye).clamp(-1.0, 1.0).acos(),
         })
+    }
+}
+
+/// The material picker's name of the bundled fit.
+const BUNDLED_MATERIAL: &str = "wax (bundled fit)";
+/// What a preset's "path" starts with (it has no file).
+const PRESET_PREFIX: &str = "preset: ";
+
+/// The material picker's name of a loaded table.
+fn material_name(path: &Path) -> String {
+    let text = path.to_string_lossy();
+    match text.strip_prefix(PRESET_PREFIX) {
+        Some(name) => name.to_owned(),
+        None if path.parent().and_then(Path::file_name) == Some("wax-fit".as_ref()) => {
+            BUNDLED_MATERIAL.to_owned()
+        }
+        None => file_name(path),
     }
 }
 

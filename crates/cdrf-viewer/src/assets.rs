@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use cdrf_core::environment::{EnvironmentError, EquirectMap};
+use cdrf_core::environment::{EnvironmentDesc, EnvironmentError, EnvironmentSource, EquirectMap};
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::gaussian_file::GaussianFileError;
 use cdrf_core::glam::Vec3;
@@ -12,6 +12,7 @@ use cdrf_core::light::NonLocal;
 use cdrf_core::lut_file::LutFileError;
 use cdrf_core::mesh::MeshSurfaces;
 use cdrf_core::scene::{Scene, SceneError};
+use cdrf_core::specular::SpecularLayer;
 use cdrf_core::{
     CdrfLut, CurvatureError, CurvatureOptions, GaussianParameters, LoadError, Mesh, ViewCorrection,
     curvature_per_mm, read_gaussian, read_lut,
@@ -101,29 +102,30 @@ pub struct LoadedMesh {
 
 impl LoadedMesh {
     /// Reads an OBJ or glTF file with its materials and textures and estimates its curvature
-    /// (on the welded geometry: UV seams do not cut it).
+    /// (on the welded geometry: UV seams do not cut it), smoothed `curvature_smoothing` rounds.
     ///
     /// # Errors
     /// [`AssetError::Mesh`] or [`AssetError::Curvature`].
-    pub fn load(path: &Path) -> Result<Self, AssetError> {
+    pub fn load(path: &Path, curvature_smoothing: u32) -> Result<Self, AssetError> {
         let (repaired, surfaces) = Mesh::load_with_surfaces(path)?;
         Ok(Self {
             surfaces,
-            ..Self::new(path, repaired.mesh)?
+            ..Self::new(path, repaired.mesh, curvature_smoothing)?
         })
     }
 
-    /// Estimates the curvature of `mesh` (read from `path`); one untextured primitive.
+    /// Estimates the curvature of `mesh` (read from `path`), smoothed `curvature_smoothing`
+    /// rounds; one untextured primitive.
     ///
     /// # Errors
     /// [`AssetError::Curvature`].
-    pub fn new(path: &Path, mesh: Mesh) -> Result<Self, AssetError> {
-        let curvature = curvature_per_mm(&mesh, &CurvatureOptions::new(1.0)).map_err(|error| {
-            AssetError::Curvature {
+    pub fn new(path: &Path, mesh: Mesh, curvature_smoothing: u32) -> Result<Self, AssetError> {
+        let options = CurvatureOptions::new(1.0).with_smoothing_iterations(curvature_smoothing);
+        let curvature =
+            curvature_per_mm(&mesh, &options).map_err(|error| AssetError::Curvature {
                 path: path.to_owned(),
                 error,
-            }
-        })?;
+            })?;
         let (min, max) = mesh.positions.iter().fold(
             (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
             |(min, max), &p| (min.min(p), max.max(p)),
@@ -301,11 +303,12 @@ pub enum Asset {
 }
 
 impl Asset {
-    /// Loads `path` by what it is: a folder is a fit output; otherwise by extension.
+    /// Loads `path` by what it is: a folder is a fit output; otherwise by extension (a mesh's
+    /// curvature smoothed `curvature_smoothing` rounds).
     ///
     /// # Errors
     /// [`AssetError`] naming the file.
-    pub fn load(path: &Path) -> Result<Self, AssetError> {
+    pub fn load(path: &Path, curvature_smoothing: u32) -> Result<Self, AssetError> {
         if path.is_dir() {
             return load_fit_folder(path);
         }
@@ -314,7 +317,9 @@ impl Asset {
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase);
         match extension.as_deref() {
-            Some("obj" | "gltf" | "glb") => LoadedMesh::load(path).map(Asset::Mesh),
+            Some("obj" | "gltf" | "glb") => {
+                LoadedMesh::load(path, curvature_smoothing).map(Asset::Mesh)
+            }
             // A LUT, or else an environment map.
             Some("exr") => match read_lut(path) {
                 Ok(lut) => Ok(Asset::Lut(LoadedLut {
@@ -366,6 +371,9 @@ pub fn load_fit_folder(folder: &Path) -> Result<Asset, AssetError> {
     Ok(Asset::Fit { lut, gaussian })
 }
 
+/// The viewer's opening scene, relative to the data folder.
+pub const BUNDLED_SCENE: &str = "scenes/viewer.toml";
+
 /// The repository's `data/` folder (bundled meshes, the wax fit, scenes), or `CDRF_DATA`.
 pub fn bundled_data_dir() -> PathBuf {
     match std::env::var_os("CDRF_DATA") {
@@ -387,22 +395,32 @@ pub struct StartupFiles {
     pub irradiance: f32,
     /// cdrf-fit output folder (`measured.exr`, `gaussian.toml`).
     pub fit_folder: PathBuf,
-    /// The non-local terms to start with (the scene's `[shading] shadows`, `transmission`).
+    /// The non-local terms to start with (the scene's `[shading] shadows`, `transmission`,
+    /// `interreflection`, `subsurface`).
     pub non_local: NonLocal,
+    /// The specular layer to start with (the scene's `[shading] specular`); `None`: off.
+    pub specular: Option<SpecularLayer>,
+    /// A uniform sky's radiance to start with (the scene's `[environment] uniform`, first
+    /// channel, times its intensity; 0: none).
+    pub sky_radiance: f32,
+    /// Rounds of curvature smoothing for meshes the viewer loads (the scene's
+    /// `[mesh] curvature_smoothing`).
+    pub curvature_smoothing: u32,
 }
 
 impl StartupFiles {
-    /// The bundled defaults: the bunny scene (`data/scenes/bunny.toml`: mesh, scale, light)
-    /// with the bundled wax fit (`data/wax-fit`).
+    /// The bundled opening view (`data/scenes/viewer.toml`: the bunny with every non-local
+    /// term, the specular layer and a sky) with the bundled wax fit (`data/wax-fit`).
     ///
     /// # Errors
     /// [`AssetError::Scene`] when the bundled scene is missing or bad.
     pub fn bundled() -> Result<Self, AssetError> {
         let data = bundled_data_dir();
-        Self::from_scene(&data.join("scenes/bunny.toml"), &data.join("wax-fit"))
+        Self::from_scene(&data.join(BUNDLED_SCENE), &data.join("wax-fit"))
     }
 
-    /// The mesh, scale and first light of a scene file, with the fit in `fit_folder`.
+    /// The mesh, scale, first light, non-local terms, specular layer, uniform sky and curvature
+    /// smoothing of a scene file, with the fit in `fit_folder`.
     ///
     /// # Errors
     /// [`AssetError::Scene`].
@@ -421,6 +439,16 @@ impl StartupFiles {
             irradiance: light.map_or(1.0, |l| l.irradiance[0]),
             fit_folder: fit_folder.to_owned(),
             non_local: scene.non_local,
+            specular: scene.specular,
+            sky_radiance: match &scene.environment {
+                Some(EnvironmentDesc {
+                    source: EnvironmentSource::Uniform(radiance),
+                    intensity,
+                    ..
+                }) => radiance[0] * intensity,
+                _ => 0.0,
+            },
+            curvature_smoothing: scene.mesh.curvature_smoothing,
         })
     }
 }
@@ -432,16 +460,16 @@ mod tests {
     #[test]
     fn suggested_scale_makes_an_obj_about_100_mm_and_a_gltf_metres() {
         let sphere = Mesh::icosphere(1.7, 1);
-        let obj = LoadedMesh::new(Path::new("a.obj"), sphere.clone()).unwrap();
+        let obj = LoadedMesh::new(Path::new("a.obj"), sphere.clone(), 0).unwrap();
         // 3.4 units across → 29.4 mm per unit → nearest of 20, 50: 20 (ln distance).
         assert_eq!(obj.suggested_mm_per_unit(), 20.0);
-        let gltf = LoadedMesh::new(Path::new("a.glb"), sphere).unwrap();
+        let gltf = LoadedMesh::new(Path::new("a.glb"), sphere, 0).unwrap();
         assert_eq!(gltf.suggested_mm_per_unit(), 1000.0);
     }
 
     #[test]
     fn unknown_files_and_empty_folders_name_the_path() {
-        let error = Asset::load(Path::new("notes.txt")).unwrap_err();
+        let error = Asset::load(Path::new("notes.txt"), 0).unwrap_err();
         assert!(
             error
                 .to_string()
@@ -449,7 +477,7 @@ mod tests {
         );
         let folder = std::env::temp_dir().join(format!("cdrf-viewer-empty-{}", std::process::id()));
         std::fs::create_dir_all(&folder).unwrap();
-        let error = Asset::load(&folder).unwrap_err();
+        let error = Asset::load(&folder, 0).unwrap_err();
         assert!(error.to_string().contains("not a cdrf-fit output folder"));
         std::fs::remove_dir_all(&folder).unwrap();
     }

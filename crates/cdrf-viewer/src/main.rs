@@ -40,7 +40,8 @@ struct Cli {
 /// What the viewer opens with (window and screenshot).
 #[derive(Args, Clone)]
 struct StartArgs {
-    /// A scene file whose mesh, scale and light to open (default: data/scenes/bunny.toml).
+    /// A scene file whose mesh, scale, light, non-local terms, specular layer and sky to open
+    /// (default: data/scenes/viewer.toml, the bunny with every term).
     #[arg(long, value_name = "SCENE.toml")]
     scene: Option<PathBuf>,
     /// A cdrf-fit output folder with measured.exr and gaussian.toml (default: data/wax-fit).
@@ -127,8 +128,8 @@ struct ScreenshotArgs {
     /// Pixels per point (2 for a HiDPI image).
     #[arg(long, default_value_t = 1.0)]
     scale: f32,
-    /// How the two models share the view.
-    #[arg(long, value_enum, default_value_t = ViewArg::SideBySide)]
+    /// How the models share the view (one: the left model alone, as the viewer opens).
+    #[arg(long, value_enum, default_value_t = ViewArg::One)]
     view: ViewArg,
     #[command(flatten)]
     start: StartArgs,
@@ -136,6 +137,7 @@ struct ScreenshotArgs {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum ViewArg {
+    One,
     SideBySide,
     Split,
     Difference,
@@ -161,7 +163,7 @@ fn startup_files(args: &StartArgs) -> anyhow::Result<StartupFiles> {
     let scene = args
         .scene
         .clone()
-        .unwrap_or_else(|| data.join("scenes/bunny.toml"));
+        .unwrap_or_else(|| data.join(cdrf_viewer::assets::BUNDLED_SCENE));
     let fit = args.fit.clone().unwrap_or_else(|| data.join("wax-fit"));
     StartupFiles::from_scene(&scene, &fit).context(
         "the viewer's start-up files (set CDRF_DATA to the repository's data folder, or pass --scene and --fit)",
@@ -263,6 +265,7 @@ fn write_png(image: &image::RgbaImage, path: &Path) -> anyhow::Result<()> {
 fn apply_view(app: &mut ViewerApp, view: ViewArg) {
     let settings = app.settings_mut();
     match view {
+        ViewArg::One => settings.compare = Compare::Single,
         ViewArg::SideBySide => settings.compare = Compare::SideBySide,
         ViewArg::Split => settings.compare = Compare::Split,
         ViewArg::Difference => settings.compare = Compare::Difference,

@@ -245,13 +245,23 @@ pub fn view_overlay(
     };
     let margin = Vec2::new(10.0, 8.0);
     match layout {
-        Layout::Single => {
+        Layout::Single if settings.curvature_view => {
             painter.text(
                 rect.left_top() + margin,
                 egui::Align2::LEFT_TOP,
                 "curvature",
                 font.clone(),
                 Color32::WHITE,
+            );
+        }
+        Layout::Single => {
+            label(rect.left_top() + margin, egui::Align2::LEFT_TOP, 0);
+            painter.text(
+                rect.left_top() + margin + Vec2::new(0.0, 20.0),
+                egui::Align2::LEFT_TOP,
+                terms_label(settings.non_local),
+                egui::FontId::proportional(13.0),
+                ui.visuals().weak_text_color(),
             );
         }
         Layout::SideBySide => {
@@ -295,6 +305,24 @@ pub fn view_overlay(
             );
             difference_legend(&painter, rect, settings.difference_range);
         }
+    }
+}
+
+/// What the non-local terms add, in words.
+fn terms_label(non_local: cdrf_core::light::NonLocal) -> String {
+    let names: Vec<&str> = [
+        (non_local.shadows, "cast shadows"),
+        (non_local.transmission, "transmission"),
+        (non_local.interreflection, "inter-reflection"),
+        (non_local.subsurface, "subsurface gather"),
+    ]
+    .into_iter()
+    .filter_map(|(on, name)| on.then_some(name))
+    .collect();
+    match names.len() {
+        0 => "local model alone (the poster's)".to_owned(),
+        4 => "+ every non-local term".to_owned(),
+        _ => format!("+ {}", names.join(", ")),
     }
 }
 
