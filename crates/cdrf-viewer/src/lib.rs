@@ -20,5 +20,5 @@ pub mod outputs;
 pub mod panels;
 pub mod pick;
 
-pub use app::{Compare, LightKind, Model, Settings, ViewerApp};
+pub use app::{Compare, LightKind, SLOT_MODELS, Settings, ViewerApp};
 pub use assets::StartupFiles;
