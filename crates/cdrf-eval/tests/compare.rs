@@ -1,15 +1,15 @@
-//! The comparison with path-traced references on small cases: the
-//! r = 35 mm wax sphere at 128 × 128 pixels (the 512 × 512 reference box-averaged 4 × 4), where
-//! the measured CDRF must beat both the Gaussian CDRF and Lambert in every region and metric and
-//! the non-local terms must change nothing; the torus, where they must cut the error; and the
-//! knot, where the inter-reflection must light the shadow side between the strands.
+//! The comparison with path-traced references on small cases: the r = 35 mm wax sphere at
+//! 128 × 128 pixels (the 512 × 512 reference box-averaged 4 × 4), where the measured CDRF must
+//! beat both the Gaussian CDRF and Lambert in every region and metric and the non-local terms
+//! must change nothing; the torus, where they must cut the error; and the knot, where the
+//! subsurface gather and the inter-reflection must light the shadow side between the strands.
 
 use cdrf_eval::{CaseResult, CaseSpec, ComparedModel, Models, Region, read_manifest, run_case};
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
 use cdrf_tests::data_dir;
 
 /// The compared model named `name` in compare.json (`measured_shadows`).
-fn model(name: &str) -> ComparedModel {
+fn compared(name: &str) -> ComparedModel {
     ComparedModel::ALL
         .into_iter()
         .find(|model| model.name() == name)
@@ -59,8 +59,8 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
     ] {
         let row = result.regions.iter().find(|r| r.region == region).unwrap();
         assert!(row.blocks >= 10, "{region}: only {} blocks", row.blocks);
-        let measured = result.metrics(region, model("measured")).unwrap();
-        for other in [model("gaussian"), model("lambert")] {
+        let measured = result.metrics(region, compared("measured")).unwrap();
+        for other in [compared("gaussian"), compared("lambert")] {
             let other_metrics = result.metrics(region, other).unwrap();
             assert!(
                 measured.relative_rmse < other_metrics.relative_rmse
@@ -71,7 +71,7 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
         }
     }
     // On the lit side, where the reference's noise averages out, the table is within 2 %.
-    let lit = result.metrics(Region::Lit, model("measured")).unwrap();
+    let lit = result.metrics(Region::Lit, compared("measured")).unwrap();
     assert!(lit.relative_rmse < 0.02, "{lit:?}");
 
     // An isolated sphere is its own osculating sphere and convex: cast shadows, transmission and
@@ -85,13 +85,13 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
         Region::Terminator,
         Region::Shadow,
     ] {
-        let poster = result.metrics(region, model("measured")).unwrap();
+        let poster = result.metrics(region, compared("measured")).unwrap();
         for model in [
-            model("measured_shadows"),
-            model("measured_transmission"),
-            model("measured_shadows_transmission"),
-            model("measured_shadows_subsurface"),
-            model("measured_all"),
+            compared("measured_shadows"),
+            compared("measured_transmission"),
+            compared("measured_shadows_transmission"),
+            compared("measured_shadows_subsurface"),
+            compared("measured_all"),
         ] {
             let other = result.metrics(region, model).unwrap();
             let bound = if model.non_local().subsurface {
@@ -117,8 +117,12 @@ fn measured_beats_gaussian_and_lambert_on_the_sphere() {
 fn shadows_and_transmission_cut_the_torus_error() {
     let result = run_small_case("torus");
     let rmse = |region, model| result.metrics(region, model).unwrap().relative_rmse;
-    let both = model("measured_shadows_transmission");
-    for local in [model("measured"), model("gaussian"), model("lambert")] {
+    let both = compared("measured_shadows_transmission");
+    for local in [
+        compared("measured"),
+        compared("gaussian"),
+        compared("lambert"),
+    ] {
         assert!(
             rmse(Region::Whole, both) < 0.3 * rmse(Region::Whole, local),
             "whole object: {} vs {local} {}",
@@ -132,14 +136,14 @@ fn shadows_and_transmission_cut_the_torus_error() {
     }
     // Transmission lights the shadow side through the ring: better than shadows alone there.
     assert!(
-        rmse(Region::Shadow, both) < rmse(Region::Shadow, model("measured_shadows")),
+        rmse(Region::Shadow, both) < rmse(Region::Shadow, compared("measured_shadows")),
         "shadow side: {} vs {}",
         rmse(Region::Shadow, both),
-        rmse(Region::Shadow, model("measured_shadows"))
+        rmse(Region::Shadow, compared("measured_shadows"))
     );
     // And nothing changes on the lit side away from the shadow (to 0.5 % of the error).
     assert!(
-        (rmse(Region::Lit, both) - rmse(Region::Lit, model("measured"))).abs() < 5e-3,
+        (rmse(Region::Lit, both) - rmse(Region::Lit, compared("measured"))).abs() < 5e-3,
         "lit side"
     );
 }
@@ -162,8 +166,8 @@ fn interreflection_lights_the_knot_between_its_strands() {
     let result = run_small_case("knot");
     let row = |model| result.theta.ratios(model).unwrap();
     let (before, after) = (
-        row(model("measured_shadows_subsurface")),
-        row(model("measured_all")),
+        row(compared("measured_shadows_subsurface")),
+        row(compared("measured_all")),
     );
     // Bins 0–50° and 50–70°: as before, within 5 %.
     for bin in 0..2 {
@@ -185,10 +189,10 @@ fn interreflection_lights_the_knot_between_its_strands() {
     }
     let rmse = |model| result.metrics(Region::Whole, model).unwrap().relative_rmse;
     assert!(
-        rmse(model("measured_all")) < 0.92 * rmse(model("measured_shadows_subsurface")),
+        rmse(compared("measured_all")) < 0.92 * rmse(compared("measured_shadows_subsurface")),
         "whole object: {} vs {}",
-        rmse(model("measured_all")),
-        rmse(model("measured_shadows_subsurface"))
+        rmse(compared("measured_all")),
+        rmse(compared("measured_shadows_subsurface"))
     );
 }
 
@@ -201,8 +205,8 @@ fn the_subsurface_gather_lights_the_knot_shadow_side() {
     let result = run_small_case("knot");
     let row = |model| result.theta.ratios(model).unwrap();
     let (before, after) = (
-        row(model("measured_shadows_transmission")),
-        row(model("measured_shadows_subsurface")),
+        row(compared("measured_shadows_transmission")),
+        row(compared("measured_shadows_subsurface")),
     );
     println!("bins before {:?}\nbins after {:?}", before.bins, after.bins);
     for bin in 0..2 {
@@ -217,8 +221,7 @@ fn the_subsurface_gather_lights_the_knot_shadow_side() {
     // px: 0.52 / 0.33 / 0.19 / 0.30 → 0.66 / 0.49 / 0.33 / 0.40). Not more: the path-traced
     // knot's light that travelled through the wax alone is 0.67 / 0.48 / 0.29 / 0.33 of it
     // there (docs/research/diffusion-gather.md, third study); the rest crossed the air between
-    // the strands, which is the inter-reflection's (the gather counted some of it until
-    // 2026-12-04: 0.69 / 0.53 / 0.36 / 0.44).
+    // the strands, which is the inter-reflection's.
     for bin in 4..8 {
         assert!(
             after.bins[bin] > 1.25 * before.bins[bin] && after.bins[bin] > 0.3,
@@ -229,23 +232,23 @@ fn the_subsurface_gather_lights_the_knot_shadow_side() {
     }
     let rmse = |model| result.metrics(Region::Whole, model).unwrap().relative_rmse;
     assert!(
-        rmse(model("measured_shadows_subsurface"))
-            < 0.9 * rmse(model("measured_shadows_transmission")),
+        rmse(compared("measured_shadows_subsurface"))
+            < 0.9 * rmse(compared("measured_shadows_transmission")),
         "whole object: {} vs {}",
-        rmse(model("measured_shadows_subsurface")),
-        rmse(model("measured_shadows_transmission"))
+        rmse(compared("measured_shadows_subsurface")),
+        rmse(compared("measured_shadows_transmission"))
     );
 }
 
-/// Issue 16's targets at a size CI affords (128 px; at 512 px, `compare`: the knot 9.3 %, its
-/// second view 12.6 %): with every term the knot's and its second view's light is 0.75–1.33 ×
+/// The non-local terms' targets at a size CI affords (128 px; at 512 px, `compare`: the knot
+/// 9.3 %, its second view 12.6 %): with every term the knot's and its second view's light is 0.75–1.33 ×
 /// the path-traced reference's in every θ bin and in the cast shadow, and the whole-object
 /// error is below 10 % and 15 %.
 #[test]
 fn every_term_meets_the_knot_targets() {
     for (name, whole) in [("knot", 0.10), ("knot_view2", 0.15)] {
         let result = run_small_case(name);
-        let ratios = result.theta.ratios(model("measured_all")).unwrap();
+        let ratios = result.theta.ratios(compared("measured_all")).unwrap();
         let cast = ratios.cast_shadow;
         println!("{name}: bins {:?}, cast shadow {cast}", ratios.bins);
         for (bin, ratio) in ratios.bins.iter().chain([&cast]).enumerate() {
@@ -255,7 +258,7 @@ fn every_term_meets_the_knot_targets() {
             );
         }
         let rmse = result
-            .metrics(Region::Whole, model("measured_all"))
+            .metrics(Region::Whole, compared("measured_all"))
             .unwrap()
             .relative_rmse;
         assert!(rmse < whole, "{name}: whole object {rmse}");
