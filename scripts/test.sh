@@ -5,7 +5,7 @@
 # driver (lavapipe) for the GPU tests, a virtual X server (xvfb, xauth) and the X libraries winit
 # loads for the viewer's windowed test, a C++ compiler for crates that build C++ — using sudo
 # only when not root. Then: format check, clippy with warnings as errors, every test (unit,
-# integration, CLI, doc tests), a publish dry run of the four crates, and the docs build.
+# integration, CLI, doc tests), a publish dry run of the five crates, and the docs build.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -62,7 +62,7 @@ section "cargo test"
 # --show-output prints the figures tests measure (curvature errors, spline overshoot, ...).
 cargo test --workspace --locked -- --show-output
 
-section "cargo publish --dry-run (the four crates package and build on their own)"
+section "cargo publish --dry-run (the five crates package and build on their own)"
 # Each crate is packaged and built from its package alone, against the others' packages (about
 # 5 minutes: the dependencies are rebuilt outside this workspace's profiles). Needs crates.io's
 # index, which CI reaches.
@@ -74,7 +74,7 @@ rm -rf "${CARGO_HOME:-$HOME/.cargo}"/registry/src/-*/cdrf-*-[0-9]* \
   "${CARGO_HOME:-$HOME/.cargo}"/registry/cache/-*/cdrf-*-[0-9]*.crate \
   target/package target/debug/.fingerprint/cdrf-*
 cargo publish --dry-run --workspace --exclude cdrf-tests --exclude cdrf-fuzz --locked --allow-dirty --quiet
-for crate in cdrf-core cdrf-fit cdrf-render cdrf-viewer; do
+for crate in cdrf-core cdrf-eval cdrf-fit cdrf-render cdrf-viewer; do
   listing="$(cargo package -p "$crate" --list --locked --allow-dirty 2>/dev/null)"
   # Test data and the bundled photographs stay out of the packages.
   if grep -qE '(^|/)(tests|data)/|\.(exr|png|obj|glb)$' <<<"$listing"; then

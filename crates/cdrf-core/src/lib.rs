@@ -44,6 +44,7 @@ pub mod lut_file;
 pub mod mesh;
 pub mod patches;
 pub mod scene;
+pub mod shading;
 pub mod specular;
 pub mod translucency;
 
@@ -60,4 +61,5 @@ pub use lut::{Cdrf, CdrfLut, CurvatureAxis, Filter, ViewCorrection};
 pub use lut_file::{read_lut, write_lut};
 pub use mesh::{LoadError, Mesh, RepairReport};
 pub use scene::{Scene, SceneAssets};
+pub use shading::ShadingModel;
 pub use translucency::{Translucency, TransmissionProfile};

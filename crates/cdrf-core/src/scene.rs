@@ -86,6 +86,7 @@ use crate::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
 use crate::lut::{CdrfLut, ViewCorrection};
 use crate::lut_file::{LutFileError, read_lut};
 use crate::mesh::{LoadError, Mesh, MeshSurfaces};
+use crate::shading::ShadingModel;
 use crate::specular::{DEFAULT_IOR, DEFAULT_ROUGHNESS_ALPHA, SpecularLayer};
 
 /// A scene: what to render and how.
@@ -254,6 +255,18 @@ pub enum ShadingSpec {
     },
 }
 
+impl ShadingSpec {
+    /// The model this is.
+    pub fn model(&self) -> ShadingModel {
+        match self {
+            ShadingSpec::Measured { .. } => ShadingModel::Measured,
+            ShadingSpec::Gaussian { .. } => ShadingModel::Gaussian,
+            ShadingSpec::Lambert { .. } => ShadingModel::Lambert,
+            ShadingSpec::Curvature { .. } => ShadingModel::Curvature,
+        }
+    }
+}
+
 /// A shading model with its data loaded.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {
@@ -276,6 +289,18 @@ pub enum Material {
         /// κ at the colour map's ends, mm⁻¹.
         range_per_mm: [f32; 2],
     },
+}
+
+impl Material {
+    /// The model this is.
+    pub fn model(&self) -> ShadingModel {
+        match self {
+            Material::Measured(_) => ShadingModel::Measured,
+            Material::Gaussian { .. } => ShadingModel::Gaussian,
+            Material::Lambert { .. } => ShadingModel::Lambert,
+            Material::Curvature { .. } => ShadingModel::Curvature,
+        }
+    }
 }
 
 /// A scene's files, loaded.
@@ -777,8 +802,15 @@ impl Scene {
                 Ok(())
             }
         };
-        let shading = match s.model.as_str() {
-            "measured" => {
+        let Some(model) = ShadingModel::from_name(&s.model) else {
+            let [rest @ .., last] = ShadingModel::ALL.map(ShadingModel::name);
+            return Err(invalid(
+                "[shading] model",
+                format!("\"{}\": must be {} or {last}", s.model, rest.join(", ")),
+            ));
+        };
+        let shading = match model {
+            ShadingModel::Measured => {
                 unexpected("[shading] gaussian", s.gaussian.is_some(), "measured")?;
                 unexpected("[shading] albedo", s.albedo.is_some(), "measured")?;
                 unexpected(
@@ -793,7 +825,7 @@ impl Scene {
                     lut: base_dir.join(lut),
                 }
             }
-            "gaussian" => {
+            ShadingModel::Gaussian => {
                 unexpected("[shading] lut", s.lut.is_some(), "gaussian")?;
                 unexpected("[shading] albedo", s.albedo.is_some(), "gaussian")?;
                 unexpected(
@@ -811,7 +843,7 @@ impl Scene {
                     parameters: base_dir.join(parameters),
                 }
             }
-            "lambert" => {
+            ShadingModel::Lambert => {
                 unexpected("[shading] lut", s.lut.is_some(), "lambert")?;
                 unexpected("[shading] gaussian", s.gaussian.is_some(), "lambert")?;
                 unexpected(
@@ -828,7 +860,7 @@ impl Scene {
                 }
                 ShadingSpec::Lambert { albedo }
             }
-            "curvature" => {
+            ShadingModel::Curvature => {
                 unexpected("[shading] lut", s.lut.is_some(), "curvature")?;
                 unexpected("[shading] gaussian", s.gaussian.is_some(), "curvature")?;
                 unexpected("[shading] albedo", s.albedo.is_some(), "curvature")?;
@@ -843,12 +875,6 @@ impl Scene {
                 ShadingSpec::Curvature {
                     range_per_mm: s.curvature_range_per_mm,
                 }
-            }
-            other => {
-                return Err(invalid(
-                    "[shading] model",
-                    format!("\"{other}\": must be measured, gaussian, lambert or curvature"),
-                ));
             }
         };
         // Checked whether or not the layer is on, so a file that sets them is never silently
@@ -1049,6 +1075,7 @@ lut = "out/measured.exr"
                 lut: "/scenes/out/measured.exr".into()
             }
         );
+        assert_eq!(scene.shading.model(), ShadingModel::Measured);
         // Scale, then rotate about x, then translate.
         let p = scene
             .mesh
@@ -1328,6 +1355,13 @@ outer_angle_deg = 30.0"#,
             assert!(message.starts_with("/scenes/s.toml: "), "{message}");
             assert!(message.contains(key), "{message} lacks {key}");
         }
+        let message = parse(&EXAMPLE.replace("model = \"measured\"", "model = \"phong\""))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.ends_with("\"phong\": must be measured, gaussian, lambert or curvature"),
+            "{message}"
+        );
     }
 
     /// The data set's pixel mapping: pixel (i, j)'s centre projects to that pixel's NDC centre.

@@ -63,7 +63,9 @@ use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::gaussian_file::read_gaussian;
 use cdrf_core::glam::Vec3;
 use cdrf_core::glam::camera::rh::{proj::directx, view};
-use cdrf_core::{CdrfLut, CurvatureOptions, Mesh, ViewCorrection, curvature_per_mm, read_lut};
+use cdrf_core::{
+    CdrfLut, CurvatureOptions, Mesh, ShadingModel, ViewCorrection, curvature_per_mm, read_lut,
+};
 use cdrf_render::{
     DirectionalLight, ENVIRONMENT_SH_ORDER, NonLocal, PointLight, ShCoefficients, SpecularLayer,
     SpotLight,
@@ -301,30 +303,6 @@ impl SceneData {
     }
 }
 
-/// The four materials, in key order.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Shading {
-    Measured,
-    Gaussian,
-    Lambert,
-    Curvature,
-}
-
-impl Shading {
-    fn index(self) -> usize {
-        self as usize
-    }
-
-    fn name(self) -> &'static str {
-        match self {
-            Self::Measured => "measured CDRF",
-            Self::Gaussian => "Gaussian CDRF",
-            Self::Lambert => "Lambert",
-            Self::Curvature => "curvature",
-        }
-    }
-}
-
 /// What kind of light circles the model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum LightKind {
@@ -530,6 +508,8 @@ impl Gpu {
                 range_per_mm: scene.curvature_range_per_mm,
             },
         ];
+        // One material per model, indexed by `ShadingModel as usize` (the keys 1 to 4).
+        debug_assert!(descs.iter().map(MaterialDesc::model).eq(ShadingModel::ALL));
         let mut materials = Vec::with_capacity(descs.len());
         for desc in &descs {
             let material = renderer
@@ -608,7 +588,7 @@ impl Gpu {
         &mut self,
         view: View,
         lights: &[cdrf_render::Light],
-        shading: Shading,
+        shading: ShadingModel,
         non_local: NonLocal,
         mm_per_world_unit: f32,
         environment: Option<&ShCoefficients>,
@@ -642,7 +622,7 @@ impl Gpu {
         // cdrf-render: upload this frame's camera, light and draw list.
         let draws = [Draw::new(
             self.mesh,
-            self.materials[shading.index()],
+            self.materials[shading as usize],
             cdrf_core::glam::Mat4::IDENTITY,
         )];
         // With shadows or transmission on, this returns the shadow pass to submit first.
@@ -779,7 +759,7 @@ struct App {
     gpu: Option<Gpu>,
     /// Set when something failed; `main` returns it after the loop exits.
     failure: Option<Failure>,
-    shading: Shading,
+    shading: ShadingModel,
     non_local: NonLocal,
     light: Light,
     light_kind: LightKind,
@@ -801,7 +781,7 @@ impl App {
             scene,
             gpu: None,
             failure: None,
-            shading: Shading::Measured,
+            shading: ShadingModel::Measured,
             non_local: NonLocal::OFF,
             // Start lit from the left, like the wax photographs.
             light: Light {
@@ -836,10 +816,10 @@ impl App {
         };
         let light = &mut self.light;
         match code {
-            KeyCode::Digit1 | KeyCode::Numpad1 => self.shading = Shading::Measured,
-            KeyCode::Digit2 | KeyCode::Numpad2 => self.shading = Shading::Gaussian,
-            KeyCode::Digit3 | KeyCode::Numpad3 => self.shading = Shading::Lambert,
-            KeyCode::Digit4 | KeyCode::Numpad4 => self.shading = Shading::Curvature,
+            KeyCode::Digit1 | KeyCode::Numpad1 => self.shading = ShadingModel::Measured,
+            KeyCode::Digit2 | KeyCode::Numpad2 => self.shading = ShadingModel::Gaussian,
+            KeyCode::Digit3 | KeyCode::Numpad3 => self.shading = ShadingModel::Lambert,
+            KeyCode::Digit4 | KeyCode::Numpad4 => self.shading = ShadingModel::Curvature,
             KeyCode::ArrowLeft | KeyCode::ArrowRight => {
                 let sign = if code == KeyCode::ArrowLeft {
                     -1.0
@@ -956,7 +936,7 @@ impl App {
                 "cdrf winit_host — {} — {} light — {}{}{}{}{}{}{} — {}× MSAA — {ms_per_frame:.1} ms/frame",
                 self.scene.name,
                 self.light_kind.name(),
-                self.shading.name(),
+                self.shading.label(),
                 if self.specular { " + specular" } else { "" },
                 if self.environment_on { " + sky" } else { "" },
                 if self.non_local.shadows {

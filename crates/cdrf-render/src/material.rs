@@ -5,7 +5,7 @@ use cdrf_core::environment::ZonalTable;
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::glam::Vec3;
 use cdrf_core::specular::SpecularLayer;
-use cdrf_core::{Cdrf, CdrfLut, CurvatureAxis, ViewCorrection};
+use cdrf_core::{Cdrf, CdrfLut, CurvatureAxis, ShadingModel, ViewCorrection};
 use wgpu::util::DeviceExt;
 
 use crate::error::MaterialError;
@@ -47,6 +47,18 @@ pub enum MaterialDesc<'a> {
         /// κ at the colour map's ends, mm⁻¹.
         range_per_mm: [f32; 2],
     },
+}
+
+impl MaterialDesc<'_> {
+    /// The model this is.
+    pub fn model(&self) -> ShadingModel {
+        match self {
+            MaterialDesc::Measured { .. } => ShadingModel::Measured,
+            MaterialDesc::Gaussian { .. } => ShadingModel::Gaussian,
+            MaterialDesc::Lambert { .. } => ShadingModel::Lambert,
+            MaterialDesc::Curvature { .. } => ShadingModel::Curvature,
+        }
+    }
 }
 
 /// The material's zonal coefficients a_l(κ) of the environment light (`None`: the curvature
@@ -222,7 +234,8 @@ impl MaterialFactory {
         let tabulated;
         // R_far(d) and F_sphere(κ, θ) of the subsurface gather (none: zero, no gather).
         let mut subsurface = None;
-        let (model, lut, view) = match *desc {
+        let model = Model::new(desc.model(), options.gaussian);
+        let (lut, view) = match *desc {
             MaterialDesc::Measured { lut } => {
                 if let Some(profile) = lut.diffusion_profile() {
                     let far = FarField::new(profile, f64::from(options.subsurface_cut_mm));
@@ -249,7 +262,7 @@ impl MaterialFactory {
                     uniforms.transmission_entry_cosine_power = transmission.entry_cosine_power;
                     uniforms.transmission_length_mm = Vec3::from_array(transmission.length_mm);
                 }
-                (Model::Measured, Some(lut), lut.view_correction())
+                (Some(lut), lut.view_correction())
             }
             MaterialDesc::Gaussian {
                 model,
@@ -260,19 +273,19 @@ impl MaterialFactory {
                 match options.gaussian {
                     GaussianEvaluation::Lut => {
                         tabulated = tabulate_gaussian(model, options)?;
-                        (Model::GaussianLut, Some(&tabulated), view_correction)
+                        (Some(&tabulated), view_correction)
                     }
                     GaussianEvaluation::Analytic => {
                         uniforms.sigma_mm = Vec3::from_array(model.sigma_mm());
                         uniforms.albedo_or_scale = Vec3::from_array(model.scale());
-                        (Model::GaussianAnalytic, None, view_correction)
+                        (None, view_correction)
                     }
                 }
             }
             MaterialDesc::Lambert { albedo } => {
                 check_finite_non_negative("albedo", &albedo)?;
                 uniforms.albedo_or_scale = Vec3::from_array(albedo);
-                (Model::Lambert, None, &identity)
+                (None, &identity)
             }
             MaterialDesc::Curvature { range_per_mm } => {
                 let [low, high] = range_per_mm;
@@ -284,7 +297,7 @@ impl MaterialFactory {
                     });
                 }
                 uniforms.curvature_range_per_mm = range_per_mm;
-                (Model::Curvature, None, &identity)
+                (None, &identity)
             }
         };
 

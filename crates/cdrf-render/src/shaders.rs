@@ -6,7 +6,10 @@
 
 use std::mem::offset_of;
 
+use cdrf_core::ShadingModel;
+
 use crate::gpu_types::GpuVertex;
+use crate::target::GaussianEvaluation;
 
 /// Most lights in one frame.
 pub const MAX_LIGHTS: usize = 16;
@@ -55,7 +58,8 @@ const SHADING: &str = include_str!("../shaders/cdrf.wgsl");
 const SHADOW: &str = include_str!("../shaders/shadow.wgsl");
 const SUBSURFACE_REDUCE: &str = include_str!("../shaders/subsurface_reduce.wgsl");
 
-/// The shading models of the pipelines (the shader's `MODEL` override and `MODEL_*` constants).
+/// The shader's code path for a material (its `MODEL` override and `MODEL_*` constants): the
+/// [`ShadingModel`], with the Gaussian's split by [`GaussianEvaluation`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(crate) enum Model {
     Measured = 0,
@@ -66,6 +70,17 @@ pub(crate) enum Model {
 }
 
 impl Model {
+    /// The code path that shades `model`, the Gaussian CDRF as `gaussian` says.
+    pub(crate) fn new(model: ShadingModel, gaussian: GaussianEvaluation) -> Self {
+        match (model, gaussian) {
+            (ShadingModel::Measured, _) => Self::Measured,
+            (ShadingModel::Gaussian, GaussianEvaluation::Lut) => Self::GaussianLut,
+            (ShadingModel::Gaussian, GaussianEvaluation::Analytic) => Self::GaussianAnalytic,
+            (ShadingModel::Lambert, _) => Self::Lambert,
+            (ShadingModel::Curvature, _) => Self::Curvature,
+        }
+    }
+
     const ALL: [(Self, &'static str); 5] = [
         (Self::Measured, "MODEL_MEASURED"),
         (Self::GaussianLut, "MODEL_GAUSSIAN_LUT"),

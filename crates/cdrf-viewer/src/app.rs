@@ -10,7 +10,7 @@ use cdrf_core::gaussian_file::GaussianParameters;
 use cdrf_core::glam::{Mat3, Mat4, Vec2, Vec3};
 use cdrf_core::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
 use cdrf_core::specular::{DEFAULT_IOR, DEFAULT_ROUGHNESS_ALPHA, SpecularLayer};
-use cdrf_core::{Cdrf, Filter};
+use cdrf_core::{Cdrf, Filter, ShadingModel};
 use cdrf_fit::preset::{Preset, PresetSettings, fit_gaussian_to_lut, preset_names};
 use cdrf_render::{
     ENVIRONMENT_SH_ORDER, MaterialDesc, MaterialId, MeshDesc, MeshId, SurfaceDesc, SurfaceId,
@@ -25,31 +25,14 @@ use crate::camera::OrbitCamera;
 use crate::gpu::{Layout, ViewCallback, ViewerGpu, slot_size_pixels};
 use crate::panels;
 
-/// A shading model a slot can show.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Model {
-    /// The measured LUT.
-    Measured,
-    /// Kubo's Gaussian CDRF fitted to the same photographs.
-    Gaussian,
-    /// Lambert with the albedo fitted to the measured table ([`cdrf_core::CdrfLut::lambert_albedo`];
-    /// the Gaussian's scale when no LUT is loaded).
-    Lambert,
-}
-
-impl Model {
-    /// All models, in menu order.
-    pub const ALL: [Model; 3] = [Model::Measured, Model::Gaussian, Model::Lambert];
-
-    /// The name shown in the UI.
-    pub fn label(self) -> &'static str {
-        match self {
-            Model::Measured => "measured CDRF",
-            Model::Gaussian => "Gaussian CDRF",
-            Model::Lambert => "Lambert",
-        }
-    }
-}
+/// The models a slot's menu offers, in menu order (the curvature view has its own switch).
+/// Lambert's albedo is the one fitted to the measured table
+/// ([`cdrf_core::CdrfLut::lambert_albedo`]; the Gaussian's scale when no LUT is loaded).
+pub const SLOT_MODELS: [ShadingModel; 3] = [
+    ShadingModel::Measured,
+    ShadingModel::Gaussian,
+    ShadingModel::Lambert,
+];
 
 /// The kind of light the light controls place (at the direction they set).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -96,7 +79,7 @@ pub struct Settings {
     /// How the models share the view.
     pub compare: Compare,
     /// The left (A) and right (B) models.
-    pub models: [Model; 2],
+    pub models: [ShadingModel; 2],
     /// Show per-vertex curvature instead of shading.
     pub curvature_view: bool,
     /// Rounds of curvature smoothing for meshes loaded from now on.
@@ -304,7 +287,7 @@ impl ViewerApp {
         ViewerGpu::install(render_state);
         let mut settings = Settings {
             compare: Compare::Single,
-            models: [Model::Measured, Model::Gaussian],
+            models: [ShadingModel::Measured, ShadingModel::Gaussian],
             curvature_view: false,
             curvature_smoothing: files.curvature_smoothing,
             split: 0.5,
@@ -648,11 +631,12 @@ impl ViewerApp {
         }
     }
 
-    fn material(&self, model: Model) -> Option<MaterialId> {
+    fn material(&self, model: ShadingModel) -> Option<MaterialId> {
         match model {
-            Model::Measured => self.ids.measured,
-            Model::Gaussian => self.ids.gaussian,
-            Model::Lambert => self.ids.lambert,
+            ShadingModel::Measured => self.ids.measured,
+            ShadingModel::Gaussian => self.ids.gaussian,
+            ShadingModel::Lambert => self.ids.lambert,
+            ShadingModel::Curvature => self.ids.curvature,
         }
     }
 
@@ -761,7 +745,7 @@ impl ViewerApp {
             egui::ComboBox::from_label(side)
                 .selected_text(self.settings.models[index].label())
                 .show_ui(ui, |ui| {
-                    for model in Model::ALL {
+                    for model in SLOT_MODELS {
                         ui.selectable_value(&mut self.settings.models[index], model, model.label());
                     }
                 });
@@ -1342,8 +1326,9 @@ impl ViewerApp {
                 Some(_) => None,
                 None if self.mesh.is_none() => Some("no mesh loaded"),
                 None => Some(match model {
-                    Model::Measured => "no LUT loaded",
-                    Model::Gaussian | Model::Lambert => "no gaussian.toml loaded",
+                    ShadingModel::Measured => "no LUT loaded",
+                    ShadingModel::Gaussian | ShadingModel::Lambert => "no gaussian.toml loaded",
+                    ShadingModel::Curvature => "no curvature view",
                 }),
             })
     }
@@ -1479,10 +1464,10 @@ impl eframe::App for ViewerApp {
 }
 
 /// Colour of a model's label.
-pub(crate) fn model_colour(model: Model) -> Color32 {
+pub(crate) fn model_colour(model: ShadingModel) -> Color32 {
     match model {
-        Model::Measured => Color32::from_rgb(255, 190, 120),
-        Model::Gaussian => Color32::from_rgb(150, 200, 255),
-        Model::Lambert => Color32::from_rgb(200, 200, 200),
+        ShadingModel::Measured => Color32::from_rgb(255, 190, 120),
+        ShadingModel::Gaussian => Color32::from_rgb(150, 200, 255),
+        ShadingModel::Lambert | ShadingModel::Curvature => Color32::from_rgb(200, 200, 200),
     }
 }

@@ -305,9 +305,10 @@ fn screenshot(args: &ScreenshotArgs) -> anyhow::Result<()> {
 }
 
 fn compare(args: &CompareArgs) -> anyhow::Result<()> {
-    use cdrf_viewer::compare::{
-        Models, Provenance, markdown, output_paths, read_manifest, run_case, write_staged,
+    use cdrf_eval::{
+        Models, Provenance, markdown, output_files, output_paths, read_manifest, run_case,
     };
+    use cdrf_viewer::assets::{FIT_GAUSSIAN_FILE, FIT_LUT_FILE};
     let data = cdrf_viewer::assets::bundled_data_dir();
     let cases_path = args
         .cases
@@ -323,7 +324,7 @@ fn compare(args: &CompareArgs) -> anyhow::Result<()> {
         }
         cases.retain(|case| args.only.contains(&case.name));
     }
-    let models = Models::from_fit_folder(&fit)?;
+    let models = Models::from_files(&fit.join(FIT_LUT_FILE), &fit.join(FIT_GAUSSIAN_FILE))?;
     // Every output is checked and staged before the work.
     let output_paths = output_paths(
         &args.out,
@@ -332,8 +333,8 @@ fn compare(args: &CompareArgs) -> anyhow::Result<()> {
     );
     let mut inputs = vec![
         cases_path.clone(),
-        fit.join(cdrf_viewer::assets::FIT_LUT_FILE),
-        fit.join(cdrf_viewer::assets::FIT_GAUSSIAN_FILE),
+        fit.join(FIT_LUT_FILE),
+        fit.join(FIT_GAUSSIAN_FILE),
     ];
     for case in &cases {
         inputs.extend([case.scene.clone(), case.reference.clone()]);
@@ -369,7 +370,9 @@ fn compare(args: &CompareArgs) -> anyhow::Result<()> {
         ),
     });
     let page = args.results.as_deref().zip(provenance.as_ref());
-    write_staged(&results, &args.out, page, &staged)?;
+    for (path, bytes) in output_files(&results, &args.out, page)? {
+        staged.write(&path, |file| std::io::Write::write_all(file, &bytes))?;
+    }
     let written = staged.commit()?;
     println!("{}", markdown(&results));
     for path in written {

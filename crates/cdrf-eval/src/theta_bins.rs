@@ -1,5 +1,5 @@
 //! Render / reference by θ bin: how much of the reference's light a model reproduces at each
-//! angle between normal and light, the table issue 16 measures the non-local terms by.
+//! angle between normal and light, the table the non-local terms are measured by.
 //!
 //! For each bin of θ (from the same per-pixel cos θ as the regions) the ratio Σ render / Σ
 //! reference of the mean of R, G and B over the bin's compared pixels that are not in a cast
@@ -12,7 +12,7 @@ use cdrf_core::block_error::CAST_SHADOW_FRACTION;
 use cdrf_core::image_file::RgbaImage;
 use serde::Serialize;
 
-use super::ModelName;
+use crate::models::ComparedModel;
 
 /// Bin edges in degrees of θ: the bins `[e₀, e₁)`, `[e₁, e₂)`, …; the last includes 180°.
 pub const THETA_BIN_EDGES_DEG: [f64; 9] = [0.0, 50.0, 70.0, 80.0, 90.0, 100.0, 110.0, 130.0, 180.0];
@@ -33,7 +33,7 @@ pub struct ThetaTable {
 
 impl ThetaTable {
     /// The row of `model`.
-    pub fn ratios(&self, model: ModelName) -> Option<&ThetaRatios> {
+    pub fn ratios(&self, model: ComparedModel) -> Option<&ThetaRatios> {
         self.models.iter().find(|row| row.model == model)
     }
 }
@@ -42,7 +42,7 @@ impl ThetaTable {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ThetaRatios {
     /// The model.
-    pub model: ModelName,
+    pub model: ComparedModel,
     /// Σ render / Σ reference per θ bin; NaN (`null` in JSON) where a bin is empty or black.
     pub bins: [f64; THETA_BINS],
     /// The same over the cast-shadow pixels.
@@ -52,8 +52,8 @@ pub struct ThetaRatios {
 /// The table of one case: per pixel compared (`mask`), its `cos_theta` and whether the object
 /// hides it from the light (`occluded`), every render (of `models`, in that order) against
 /// `reference`.
-pub(super) fn table(
-    models: &[ModelName],
+pub(crate) fn table(
+    models: &[ComparedModel],
     mask: &[bool],
     cos_theta: &[f32],
     occluded: &[f32],
@@ -97,7 +97,7 @@ fn pixel_bin(compared: bool, cos_theta: f32, occluded: f32) -> Option<usize> {
 
 /// The ratios of `render` to `reference` over the pixels `bins` assigns (see [`pixel_bin`]).
 fn ratios(
-    model: ModelName,
+    model: ComparedModel,
     render: &RgbaImage,
     reference: &RgbaImage,
     bins: &[Option<usize>],
@@ -128,7 +128,7 @@ fn counts(bins: &[Option<usize>]) -> ([usize; THETA_BINS], usize) {
 }
 
 /// The table as Markdown: one column per bin and the cast shadow, one row per model.
-pub(super) fn markdown(table: &ThetaTable) -> String {
+pub(crate) fn markdown(table: &ThetaTable) -> String {
     let mut text = String::from("| render / reference by θ |");
     for pair in THETA_BIN_EDGES_DEG.windows(2) {
         text.push_str(&format!(" {:.0}–{:.0}° |", pair[0], pair[1]));
@@ -196,7 +196,7 @@ mod tests {
         let bins = [Some(0), Some(0), Some(7), Some(THETA_BINS), None];
         let reference = image(&[1.0, 3.0, 0.5, 2.0, 100.0]);
         let render = image(&[0.5, 1.5, 1.0, 3.0, 0.0]);
-        let row = ratios(ModelName::Measured, &render, &reference, &bins);
+        let row = ratios(ComparedModel::ALL[0], &render, &reference, &bins);
         assert_eq!(row.bins[0], 0.5);
         assert_eq!(row.bins[7], 2.0);
         assert_eq!(row.cast_shadow, 1.5);

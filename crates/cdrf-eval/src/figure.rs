@@ -3,7 +3,10 @@
 
 use cdrf_core::block_error::{BLOCK_PX, Region};
 
-use super::{CaseResult, Geometry, ModelName, blocks, tone_map};
+use crate::models::ComparedModel;
+use crate::result::CaseResult;
+use crate::run::{Geometry, blocks};
+use crate::tone::tone_map;
 
 /// Colours of the figure: the region map, the signed block error, labels and background.
 mod colours {
@@ -89,8 +92,8 @@ impl FigureLayout {
     }
 }
 
-/// Figure labels: egui's default proportional font (Ubuntu Light, bundled with egui),
-/// rasterized with ab_glyph.
+/// Figure labels: egui's default proportional font (Ubuntu Light, from the crate egui bundles
+/// its fonts in), rasterized with ab_glyph.
 struct Text<'f> {
     font: ab_glyph::FontRef<'f>,
     px: f32,
@@ -203,9 +206,9 @@ impl Text<'_> {
 }
 
 /// The labels of the figure's columns: the path-traced reference, then the models.
-pub fn figure_column_labels(models: &[ModelName]) -> Vec<&'static str> {
-    std::iter::once("path-traced reference")
-        .chain(models.iter().map(|model| model.short_label()))
+pub fn figure_column_labels(models: &[ComparedModel]) -> Vec<String> {
+    std::iter::once("path-traced reference".to_owned())
+        .chain(models.iter().map(|model| model.label()))
         .collect()
 }
 
@@ -216,13 +219,8 @@ pub const FIGURE_ROW_LABELS: [&str; 2] = [
 ];
 
 /// Draws the labels of `layout` into `figure`: column labels, row labels and the colour key.
-fn draw_labels(figure: &mut image::RgbImage, layout: &FigureLayout, models: &[ModelName]) {
-    let definitions = egui::FontDefinitions::default();
-    let Some(data) = definitions.font_data.get("Ubuntu-Light") else {
-        return;
-    };
-    let bytes: &[u8] = (*data.font).as_ref();
-    let Ok(font) = ab_glyph::FontRef::try_from_slice(bytes) else {
+fn draw_labels(figure: &mut image::RgbImage, layout: &FigureLayout, models: &[ComparedModel]) {
+    let Ok(font) = ab_glyph::FontRef::try_from_slice(epaint_default_fonts::UBUNTU_LIGHT) else {
         return;
     };
     let text = Text {
@@ -231,7 +229,7 @@ fn draw_labels(figure: &mut image::RgbImage, layout: &FigureLayout, models: &[Mo
     };
     let padding = (layout.text_px / 4.0).ceil();
     let panel_width = layout.panel_width_px as f32;
-    for (column, label) in figure_column_labels(models).into_iter().enumerate() {
+    for (column, label) in figure_column_labels(models).iter().enumerate() {
         let (x, _) = layout.panel(column as u32, 0);
         let lines = text.wrap(&[(label, colours::TEXT)], panel_width - 2.0 * padding);
         text.draw_lines(

@@ -1,0 +1,266 @@
+//! The comparison with path-traced references on small cases: the r = 35 mm wax sphere at
+//! 128 × 128 pixels (the 512 × 512 reference box-averaged 4 × 4), where the measured CDRF must
+//! beat both the Gaussian CDRF and Lambert in every region and metric and the non-local terms
+//! must change nothing; the torus, where they must cut the error; and the knot, where the
+//! subsurface gather and the inter-reflection must light the shadow side between the strands.
+
+use cdrf_eval::{CaseResult, CaseSpec, ComparedModel, Models, Region, read_manifest, run_case};
+use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
+use cdrf_tests::data_dir;
+
+/// The compared model named `name` in compare.json (`measured_shadows`).
+fn compared(name: &str) -> ComparedModel {
+    ComparedModel::ALL
+        .into_iter()
+        .find(|model| model.name() == name)
+        .unwrap_or_else(|| panic!("no compared model is named {name}"))
+}
+
+/// The bundled fit's models.
+fn models() -> Models {
+    let fit = data_dir().join("wax-fit");
+    Models::from_files(&fit.join("measured.exr"), &fit.join("gaussian.toml"))
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn case(name: &str) -> CaseSpec {
+    let cases = read_manifest(&data_dir().join("compare.toml")).unwrap_or_else(|e| panic!("{e}"));
+    cases
+        .into_iter()
+        .find(|case| case.name == name)
+        .unwrap_or_else(|| panic!("data/compare.toml has no case {name}"))
+}
+
+/// Case `name` of data/compare.toml at 128 × 128 pixels with the bundled fit, on the software
+/// adapter; its markdown tables are printed.
+fn run_small_case(name: &str) -> CaseResult {
+    let device = HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|e| panic!("{e}"));
+    let result = run_case(&device, &case(name), &models(), Some(128), None)
+        .unwrap_or_else(|e| panic!("{e}"));
+    println!("{}", cdrf_eval::markdown(std::slice::from_ref(&result)));
+    result
+}
+
+#[test]
+fn measured_beats_gaussian_and_lambert_on_the_sphere() {
+    let result = run_small_case("sphere_r35");
+    // A sphere is convex: nothing on it is in a cast shadow.
+    let cast = result
+        .regions
+        .iter()
+        .find(|r| r.region == Region::CastShadow)
+        .unwrap();
+    assert_eq!((cast.blocks, cast.pixels), (0, 0));
+    for region in [
+        Region::Whole,
+        Region::Lit,
+        Region::Terminator,
+        Region::Shadow,
+    ] {
+        let row = result.regions.iter().find(|r| r.region == region).unwrap();
+        assert!(row.blocks >= 10, "{region}: only {} blocks", row.blocks);
+        let measured = result.metrics(region, compared("measured")).unwrap();
+        for other in [compared("gaussian"), compared("lambert")] {
+            let other_metrics = result.metrics(region, other).unwrap();
+            assert!(
+                measured.relative_rmse < other_metrics.relative_rmse
+                    && measured.mean_relative_error < other_metrics.mean_relative_error
+                    && measured.flip < other_metrics.flip,
+                "{region}: measured {measured:?} vs {other} {other_metrics:?}"
+            );
+        }
+    }
+    // On the lit side, where the reference's noise averages out, the table is within 2 %.
+    let lit = result.metrics(Region::Lit, compared("measured")).unwrap();
+    assert!(lit.relative_rmse < 0.02, "{lit:?}");
+
+    // An isolated sphere is its own osculating sphere and convex: cast shadows, transmission and
+    // the inter-reflection change nothing (to 0.1 % of the error); the subsurface gather finds
+    // what the table holds up to its sampling of the lit surface (to 2 points: at 128 px the
+    // whole object's 0.2 % becomes 0.4 %, the terminator band's 0.6 % 1.4 %, the shadow side's
+    // 3.1 % 4.6 %; at 512 px whole 0.8 → 0.9 %, terminator 1.6 → 2.6 %).
+    for region in [
+        Region::Whole,
+        Region::Lit,
+        Region::Terminator,
+        Region::Shadow,
+    ] {
+        let poster = result.metrics(region, compared("measured")).unwrap();
+        for model in [
+            compared("measured_shadows"),
+            compared("measured_transmission"),
+            compared("measured_shadows_transmission"),
+            compared("measured_shadows_subsurface"),
+            compared("measured_all"),
+        ] {
+            let other = result.metrics(region, model).unwrap();
+            let bound = if model.non_local().subsurface {
+                2e-2
+            } else {
+                1e-3
+            };
+            println!(
+                "sphere, {region}: {model} {:.4} vs the poster's {:.4}",
+                other.relative_rmse, poster.relative_rmse
+            );
+            assert!(
+                (other.relative_rmse - poster.relative_rmse).abs() < bound,
+                "{region}: {model} {other:?} vs the poster's {poster:?}"
+            );
+        }
+    }
+}
+
+/// The torus has a cast shadow and a shadow side lit through the ring: there the non-local terms
+/// must beat every local model by far (at 512 px: whole object 73 % → 7.9 %).
+#[test]
+fn shadows_and_transmission_cut_the_torus_error() {
+    let result = run_small_case("torus");
+    let rmse = |region, model| result.metrics(region, model).unwrap().relative_rmse;
+    let both = compared("measured_shadows_transmission");
+    for local in [
+        compared("measured"),
+        compared("gaussian"),
+        compared("lambert"),
+    ] {
+        assert!(
+            rmse(Region::Whole, both) < 0.3 * rmse(Region::Whole, local),
+            "whole object: {} vs {local} {}",
+            rmse(Region::Whole, both),
+            rmse(Region::Whole, local)
+        );
+        assert!(
+            rmse(Region::CastShadow, both) < 0.1 * rmse(Region::CastShadow, local),
+            "cast shadow"
+        );
+    }
+    // Transmission lights the shadow side through the ring: better than shadows alone there.
+    assert!(
+        rmse(Region::Shadow, both) < rmse(Region::Shadow, compared("measured_shadows")),
+        "shadow side: {} vs {}",
+        rmse(Region::Shadow, both),
+        rmse(Region::Shadow, compared("measured_shadows"))
+    );
+    // And nothing changes on the lit side away from the shadow (to 0.5 % of the error).
+    assert!(
+        (rmse(Region::Lit, both) - rmse(Region::Lit, compared("measured"))).abs() < 5e-3,
+        "lit side"
+    );
+}
+
+#[test]
+fn lambert_albedo_is_fitted_to_the_measurement() {
+    let albedo = models().measured.lambert_albedo();
+    println!("Lambert albedo fitted to the measured table: {albedo:?}");
+    // Wax scatters light back almost without loss (single-scattering albedo ≥ 0.985): its
+    // diffuse albedo is high, red above green above blue.
+    assert!(albedo[0] > albedo[1] && albedo[1] > albedo[2], "{albedo:?}");
+    assert!(albedo.iter().all(|a| (0.5..1.0).contains(a)), "{albedo:?}");
+}
+
+/// The knot's strands face each other: one inter-reflection must light its shadow side (at
+/// 512 px, on top of shadows and the subsurface gather: render / reference past θ = 100° from
+/// 0.33–0.43 to 0.59–0.69, whole object 19.8 % → 16.0 %) and leave its lit side alone.
+#[test]
+fn interreflection_lights_the_knot_between_its_strands() {
+    let result = run_small_case("knot");
+    let row = |model| result.theta.ratios(model).unwrap();
+    let (before, after) = (
+        row(compared("measured_shadows_subsurface")),
+        row(compared("measured_all")),
+    );
+    // Bins 0–50° and 50–70°: as before, within 5 %.
+    for bin in 0..2 {
+        assert!(
+            (after.bins[bin] / before.bins[bin] - 1.0).abs() < 0.05,
+            "lit bin {bin}: {} vs {}",
+            after.bins[bin],
+            before.bins[bin]
+        );
+    }
+    // Bins 100–110°, 110–130°, 130–180°: a tenth of the truth more, and past half of it.
+    for bin in 5..8 {
+        assert!(
+            after.bins[bin] > before.bins[bin] + 0.1 && after.bins[bin] > 0.5,
+            "shadow-side bin {bin}: {} (before {})",
+            after.bins[bin],
+            before.bins[bin]
+        );
+    }
+    let rmse = |model| result.metrics(Region::Whole, model).unwrap().relative_rmse;
+    assert!(
+        rmse(compared("measured_all")) < 0.92 * rmse(compared("measured_shadows_subsurface")),
+        "whole object: {} vs {}",
+        rmse(compared("measured_all")),
+        rmse(compared("measured_shadows_subsurface"))
+    );
+}
+
+/// The light that entered the knot beside and behind each shadow-side point and reached it
+/// through the wax: the subsurface gather in place of T(d, μ) (at 512 px: render / reference
+/// past θ = 90° from 0.17–0.48 to 0.31–0.63, whole object 21.3 % → 16.9 %), the lit side within
+/// a few per cent.
+#[test]
+fn the_subsurface_gather_lights_the_knot_shadow_side() {
+    let result = run_small_case("knot");
+    let row = |model| result.theta.ratios(model).unwrap();
+    let (before, after) = (
+        row(compared("measured_shadows_transmission")),
+        row(compared("measured_shadows_subsurface")),
+    );
+    println!("bins before {:?}\nbins after {:?}", before.bins, after.bins);
+    for bin in 0..2 {
+        assert!(
+            (after.bins[bin] / before.bins[bin] - 1.0).abs() < 0.05,
+            "lit bin {bin}: {} vs {}",
+            after.bins[bin],
+            before.bins[bin]
+        );
+    }
+    // Bins 90–100° … 130–180°: at least 1.25 × as bright, and past 0.3 of the reference (at 128
+    // px: 0.52 / 0.33 / 0.19 / 0.30 → 0.66 / 0.49 / 0.33 / 0.40). Not more: the path-traced
+    // knot's light that travelled through the wax alone is 0.67 / 0.48 / 0.29 / 0.33 of it
+    // there (docs/research/diffusion-gather.md, third study); the rest crossed the air between
+    // the strands, which is the inter-reflection's.
+    for bin in 4..8 {
+        assert!(
+            after.bins[bin] > 1.25 * before.bins[bin] && after.bins[bin] > 0.3,
+            "shadow-side bin {bin}: {} (before {})",
+            after.bins[bin],
+            before.bins[bin]
+        );
+    }
+    let rmse = |model| result.metrics(Region::Whole, model).unwrap().relative_rmse;
+    assert!(
+        rmse(compared("measured_shadows_subsurface"))
+            < 0.9 * rmse(compared("measured_shadows_transmission")),
+        "whole object: {} vs {}",
+        rmse(compared("measured_shadows_subsurface")),
+        rmse(compared("measured_shadows_transmission"))
+    );
+}
+
+/// The non-local terms' targets at a size CI affords (128 px; at 512 px, `compare`: the knot
+/// 9.3 %, its second view 12.6 %): with every term the knot's and its second view's light is 0.75–1.33 ×
+/// the path-traced reference's in every θ bin and in the cast shadow, and the whole-object
+/// error is below 10 % and 15 %.
+#[test]
+fn every_term_meets_the_knot_targets() {
+    for (name, whole) in [("knot", 0.10), ("knot_view2", 0.15)] {
+        let result = run_small_case(name);
+        let ratios = result.theta.ratios(compared("measured_all")).unwrap();
+        let cast = ratios.cast_shadow;
+        println!("{name}: bins {:?}, cast shadow {cast}", ratios.bins);
+        for (bin, ratio) in ratios.bins.iter().chain([&cast]).enumerate() {
+            assert!(
+                (0.75..=1.33).contains(ratio),
+                "{name}, bin {bin} (8: the cast shadow): {ratio}"
+            );
+        }
+        let rmse = result
+            .metrics(Region::Whole, compared("measured_all"))
+            .unwrap()
+            .relative_rmse;
+        assert!(rmse < whole, "{name}: whole object {rmse}");
+    }
+}
