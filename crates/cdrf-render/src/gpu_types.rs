@@ -461,7 +461,10 @@ mod tests {
         }
         for layout in &LAYOUTS {
             if !declared.contains(&layout.wgsl_name) {
-                problems.push(format!("struct {} is declared by no shader", layout.wgsl_name));
+                problems.push(format!(
+                    "struct {} is declared by no shader",
+                    layout.wgsl_name
+                ));
             }
         }
         assert!(
@@ -557,7 +560,11 @@ mod tests {
         assert_eq!(locations_of(&module, "VertexTermsIn"), expected);
         // Each slot's attributes are its light's fields, in order.
         let slot = size_of::<GpuLightTerms>() as u64;
-        for (k, pair) in GpuVertexTerms::ATTRIBUTES.chunks(2).take(MAX_SHADOW_LIGHTS).enumerate() {
+        for (k, pair) in GpuVertexTerms::ATTRIBUTES
+            .chunks(2)
+            .take(MAX_SHADOW_LIGHTS)
+            .enumerate()
+        {
             assert_eq!(pair[0].offset, k as u64 * slot);
             assert_eq!(pair[1].offset, k as u64 * slot + 16);
         }

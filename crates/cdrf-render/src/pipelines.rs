@@ -226,45 +226,48 @@ impl Pipelines {
             .as_ref()
             .filter(|_| terms && !self.terms_cache.contains_key(&(model, non_local)))
             .map(|(_, layout)| layout);
-        let terms_pipeline = terms_pipeline_layout.zip(self.compute.as_ref()).map(|(layout, modules)| {
-            let [vertex_terms, interreflection] = modules;
-            let compute = |label, module, entry_point| {
-                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(label),
-                    layout: Some(layout),
-                    module,
-                    entry_point: Some(entry_point),
-                    compilation_options: compilation_options.clone(),
-                    cache: None,
-                })
-            };
-            TermsPipelines {
-                vertex_terms: compute(
-                    "cdrf vertex terms pipeline",
-                    vertex_terms,
-                    "cs_vertex_terms",
-                ),
-                interreflection: non_local.interreflection.then(|| {
-                    [
-                        compute(
-                            "cdrf patch emitters pipeline",
-                            interreflection,
-                            "cs_patch_emitters",
+        let terms_pipeline =
+            terms_pipeline_layout
+                .zip(self.compute.as_ref())
+                .map(|(layout, modules)| {
+                    let [vertex_terms, interreflection] = modules;
+                    let compute = |label, module, entry_point| {
+                        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                            label: Some(label),
+                            layout: Some(layout),
+                            module,
+                            entry_point: Some(entry_point),
+                            compilation_options: compilation_options.clone(),
+                            cache: None,
+                        })
+                    };
+                    TermsPipelines {
+                        vertex_terms: compute(
+                            "cdrf vertex terms pipeline",
+                            vertex_terms,
+                            "cs_vertex_terms",
                         ),
-                        compute(
-                            "cdrf emitter bounce pipeline",
-                            interreflection,
-                            "cs_emitter_bounce",
-                        ),
-                        compute(
-                            "cdrf vertex interreflection pipeline",
-                            interreflection,
-                            "cs_vertex_interreflection",
-                        ),
-                    ]
-                }),
-            }
-        });
+                        interreflection: non_local.interreflection.then(|| {
+                            [
+                                compute(
+                                    "cdrf patch emitters pipeline",
+                                    interreflection,
+                                    "cs_patch_emitters",
+                                ),
+                                compute(
+                                    "cdrf emitter bounce pipeline",
+                                    interreflection,
+                                    "cs_emitter_bounce",
+                                ),
+                                compute(
+                                    "cdrf vertex interreflection pipeline",
+                                    interreflection,
+                                    "cs_vertex_interreflection",
+                                ),
+                            ]
+                        }),
+                    }
+                });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("cdrf pipeline"),
             layout: Some(&self.layout),

@@ -1021,10 +1021,7 @@ fn gpu_light(light: &Light) -> Result<GpuLight, &'static str> {
             GpuLight {
                 position: position(light.position)?,
                 kind: GPU_LIGHT_SPOT,
-                intensity: colour(
-                    light.intensity,
-                    "intensity must be finite and ≥ 0",
-                )?,
+                intensity: colour(light.intensity, "intensity must be finite and ≥ 0")?,
                 spot_cos_outer: outer.cos(),
                 spot_direction: unit(light.direction, "spot direction is zero or not finite")?,
                 spot_cos_inner: inner.cos(),

@@ -329,7 +329,10 @@ impl Shader {
         if reports.is_empty() {
             reports.push(error.to_string());
         }
-        (module, Err(format!("{}: {}", self.label, reports.join("\n"))))
+        (
+            module,
+            Err(format!("{}: {}", self.label, reports.join("\n"))),
+        )
     }
 }
 
@@ -464,10 +467,8 @@ mod tests {
         let composed = compose(&[part::MATHS, part::OVERRIDES]);
         let source = composed.source();
         let offset = source.find("override SHADOWS").unwrap();
-        let expected_line = 1 + part::OVERRIDES.source[..part::OVERRIDES
-            .source
-            .find("override SHADOWS")
-            .unwrap()]
+        let expected_line = 1 + part::OVERRIDES.source
+            [..part::OVERRIDES.source.find("override SHADOWS").unwrap()]
             .matches('\n')
             .count();
         assert_eq!(

@@ -23,7 +23,10 @@ const MAX_INTER_STAGE_VARIABLES: u32 = 16;
 fn validate(name: &str, composed: &ComposedShader) -> Result<naga::Module, String> {
     let source = composed.source();
     let module = naga::front::wgsl::parse_str(source).map_err(|e| {
-        let labels: Vec<_> = e.labels().map(|(span, label)| (span.to_range().unwrap_or_default(), label)).collect();
+        let labels: Vec<_> = e
+            .labels()
+            .map(|(span, label)| (span.to_range().unwrap_or_default(), label))
+            .collect();
         format!("{name}: {}", composed.diagnostic(e.message(), &labels))
     })?;
     Validator::new(ValidationFlags::all(), Capabilities::default())
@@ -114,15 +117,30 @@ fn shading_with(path: &str, source: &'static str) -> ComposedShader {
     let parts: Vec<Part> = SHADING
         .parts
         .iter()
-        .map(|part| if part.path == path { Part { path: part.path, source } } else { *part })
+        .map(|part| {
+            if part.path == path {
+                Part {
+                    path: part.path,
+                    source,
+                }
+            } else {
+                *part
+            }
+        })
         .collect();
-    assert!(parts.iter().any(|part| part.source == source), "{path} is a part of SHADING");
+    assert!(
+        parts.iter().any(|part| part.source == source),
+        "{path} is a part of SHADING"
+    );
     compose(&parts)
 }
 
 /// The 1-based line of `needle`'s first occurrence in `text`.
 fn line_of(text: &str, needle: &str) -> usize {
-    text[..text.find(needle).expect("needle in text")].matches('\n').count() + 1
+    text[..text.find(needle).expect("needle in text")]
+        .matches('\n')
+        .count()
+        + 1
 }
 
 /// A part broken on purpose is reported at its own file and line, not at a line of the
@@ -137,7 +155,11 @@ fn a_broken_part_is_reported_at_its_own_file_and_line() {
         .source;
     // A syntax error: a missing semicolon.
     let broken: &'static str = specular
-        .replacen("let half = normalize(half_sum);", "let half = normalize(half_sum)", 1)
+        .replacen(
+            "let half = normalize(half_sum);",
+            "let half = normalize(half_sum)",
+            1,
+        )
         .leak();
     let line = line_of(broken, "let half = normalize(half_sum)") + 1;
     let composed = shading_with("shaders/specular.wgsl", broken);
@@ -147,7 +169,10 @@ fn a_broken_part_is_reported_at_its_own_file_and_line() {
         report.contains(&format!("--> shaders/specular.wgsl:{line}:")),
         "{report}"
     );
-    assert!(report.contains("let cos_half = dot(normal, half);"), "{report}");
+    assert!(
+        report.contains("let cos_half = dot(normal, half);"),
+        "{report}"
+    );
 
     // A validation error: a call with the wrong argument type.
     let broken: &'static str = specular
@@ -162,7 +187,10 @@ fn a_broken_part_is_reported_at_its_own_file_and_line() {
         "{report}"
     );
     let composed_line = line_of(composed.source(), "smith_g1(cos_phi, 1u)");
-    assert_ne!(composed_line, line, "the part does not start the composed source");
+    assert_ne!(
+        composed_line, line,
+        "the part does not start the composed source"
+    );
     assert!(!report.contains(&format!(":{composed_line}:")), "{report}");
 }
 
@@ -225,7 +253,10 @@ fn the_shading_pass_has_a_slot_per_shadowed_light() {
         })
         .max()
         .unwrap();
-    assert!(highest < MAX_INTER_STAGE_VARIABLES, "VertexOut uses location {highest}");
+    assert!(
+        highest < MAX_INTER_STAGE_VARIABLES,
+        "VertexOut uses location {highest}"
+    );
 
     let (_, slot_terms) = module
         .functions
