@@ -41,21 +41,29 @@ pub(crate) struct Pipelines {
     shading: wgpu::ShaderModule,
     /// The light-view pass's module (`vs_light_view`, `fs_subsurface_map`).
     light_view: wgpu::ShaderModule,
-    /// The compute passes' modules: the vertex terms pass's and the inter-reflection's, if the
-    /// device runs them.
-    compute: Option<[wgpu::ShaderModule; 2]>,
     /// The first module that failed to compile: the diagnostic at its part's file and line,
     /// returned by every pipeline built after.
     shader_error: Option<String>,
     /// The shading and light-view passes' layout.
     layout: wgpu::PipelineLayout,
-    /// The compute passes' group 2 (the draw's transforms with a dynamic offset, the mesh's
-    /// vertices, the terms they write, the mesh's patches and the frame's emitters) and their
-    /// pipeline layout; `None` on a device without compute shaders or storage buffers.
-    terms_layouts: Option<(wgpu::BindGroupLayout, wgpu::PipelineLayout)>,
+    /// What the compute passes are built from; `None` on a device without compute shaders or
+    /// storage buffers.
+    compute: Option<ComputeShaders>,
     cache: HashMap<PipelineKey, wgpu::RenderPipeline>,
     terms_cache: HashMap<(Model, NonLocal), TermsPipelines>,
     subsurface_map: Option<wgpu::RenderPipeline>,
+}
+
+/// The compute passes' layouts and modules.
+struct ComputeShaders {
+    /// Their group 2 (the draw's transforms with a dynamic offset, the mesh's vertices, the
+    /// terms they write, the mesh's patches and the frame's emitters).
+    group_layout: wgpu::BindGroupLayout,
+    layout: wgpu::PipelineLayout,
+    /// `cs_vertex_terms`'s module.
+    vertex_terms: wgpu::ShaderModule,
+    /// The inter-reflection's module.
+    interreflection: wgpu::ShaderModule,
 }
 
 /// The compute passes of a shading model and its non-local terms.
@@ -98,8 +106,8 @@ impl Pipelines {
             },
             count: None,
         };
-        let terms_layouts = runs_vertex_terms(&device.limits()).then(|| {
-            let terms_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let compute = runs_vertex_terms(&device.limits()).then(|| {
+            let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("cdrf vertex terms layout"),
                 entries: &[
                     uniform_layout_entry::<GpuDraw>(0, wgpu::ShaderStages::COMPUTE, true),
@@ -112,28 +120,29 @@ impl Pipelines {
                 ],
             });
             let [frame, material, _, shadows] = bind_group_layouts;
-            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("cdrf vertex terms pipeline layout"),
                 bind_group_layouts: &[
                     Some(frame),
                     Some(material),
-                    Some(&terms_layout),
+                    Some(&group_layout),
                     Some(shadows),
                 ],
                 immediate_size: 0,
             });
-            (terms_layout, pipeline_layout)
+            ComputeShaders {
+                group_layout,
+                layout,
+                vertex_terms: create(&VERTEX_TERMS),
+                interreflection: create(&INTERREFLECTION),
+            }
         });
-        let compute = terms_layouts
-            .is_some()
-            .then(|| [create(&VERTEX_TERMS), create(&INTERREFLECTION)]);
         Self {
             shading,
             light_view,
             compute,
             shader_error,
             layout,
-            terms_layouts,
             terms_cache: HashMap::new(),
             cache: HashMap::new(),
             subsurface_map: None,
@@ -152,13 +161,13 @@ impl Pipelines {
 
     /// Whether the device runs the vertex terms pass (compute shaders, storage buffers).
     pub(crate) fn has_vertex_terms(&self) -> bool {
-        self.terms_layouts.is_some()
+        self.compute.is_some()
     }
 
     /// The compute passes' group 2 layout (bindings 0 and 7–12 of `vertex_terms_pass.wgsl` and
     /// `interreflection_pass.wgsl`), if the device runs them.
     pub(crate) fn terms_layout(&self) -> Option<&wgpu::BindGroupLayout> {
-        self.terms_layouts.as_ref().map(|(layout, _)| layout)
+        self.compute.as_ref().map(|compute| &compute.group_layout)
     }
 
     /// The compute passes' pipelines of a shading model and its non-local terms, if built.
@@ -221,53 +230,49 @@ impl Pipelines {
             attributes: &GpuVertexTerms::ATTRIBUTES,
         });
         let buffers = [vertices, vertex_terms];
-        let terms_pipeline_layout = self
-            .terms_layouts
+        let terms_shaders = self
+            .compute
             .as_ref()
-            .filter(|_| terms && !self.terms_cache.contains_key(&(model, non_local)))
-            .map(|(_, layout)| layout);
-        let terms_pipeline =
-            terms_pipeline_layout
-                .zip(self.compute.as_ref())
-                .map(|(layout, modules)| {
-                    let [vertex_terms, interreflection] = modules;
-                    let compute = |label, module, entry_point| {
-                        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                            label: Some(label),
-                            layout: Some(layout),
-                            module,
-                            entry_point: Some(entry_point),
-                            compilation_options: compilation_options.clone(),
-                            cache: None,
-                        })
-                    };
-                    TermsPipelines {
-                        vertex_terms: compute(
-                            "cdrf vertex terms pipeline",
-                            vertex_terms,
-                            "cs_vertex_terms",
+            .filter(|_| terms && !self.terms_cache.contains_key(&(model, non_local)));
+        let terms_pipeline = terms_shaders.map(|shaders| {
+            let compute = |label, module, entry_point| {
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(&shaders.layout),
+                    module,
+                    entry_point: Some(entry_point),
+                    compilation_options: compilation_options.clone(),
+                    cache: None,
+                })
+            };
+            let interreflection = &shaders.interreflection;
+            TermsPipelines {
+                vertex_terms: compute(
+                    "cdrf vertex terms pipeline",
+                    &shaders.vertex_terms,
+                    "cs_vertex_terms",
+                ),
+                interreflection: non_local.interreflection.then(|| {
+                    [
+                        compute(
+                            "cdrf patch emitters pipeline",
+                            interreflection,
+                            "cs_patch_emitters",
                         ),
-                        interreflection: non_local.interreflection.then(|| {
-                            [
-                                compute(
-                                    "cdrf patch emitters pipeline",
-                                    interreflection,
-                                    "cs_patch_emitters",
-                                ),
-                                compute(
-                                    "cdrf emitter bounce pipeline",
-                                    interreflection,
-                                    "cs_emitter_bounce",
-                                ),
-                                compute(
-                                    "cdrf vertex interreflection pipeline",
-                                    interreflection,
-                                    "cs_vertex_interreflection",
-                                ),
-                            ]
-                        }),
-                    }
-                });
+                        compute(
+                            "cdrf emitter bounce pipeline",
+                            interreflection,
+                            "cs_emitter_bounce",
+                        ),
+                        compute(
+                            "cdrf vertex interreflection pipeline",
+                            interreflection,
+                            "cs_vertex_interreflection",
+                        ),
+                    ]
+                }),
+            }
+        });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("cdrf pipeline"),
             layout: Some(&self.layout),

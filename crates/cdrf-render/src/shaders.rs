@@ -485,6 +485,30 @@ mod tests {
         assert_eq!(composed.locate(0).path, GENERATED);
     }
 
+    /// A module that fails to compile on a device reports the part's file and line.
+    #[test]
+    fn a_device_s_shader_error_names_the_part_s_line() {
+        use crate::headless::{AdapterPreference, HeadlessDevice};
+        let host = HeadlessDevice::new(AdapterPreference::Software).expect("a software device");
+        let broken = Shader {
+            label: "cdrf broken",
+            parts: &[
+                part::COMMON,
+                Part {
+                    path: "shaders/broken.wgsl",
+                    source: "// A missing semicolon.\nfn f() -> f32 {\n    return 1.0\n}\n",
+                },
+            ],
+        };
+        let (_, result) = broken.create_module(&host.device);
+        let message = result.expect_err("the module fails");
+        println!("{message}");
+        assert!(message.contains("--> shaders/broken.wgsl:4:1"), "{message}");
+        assert!(host.take_uncaptured_errors().is_empty());
+        let (_, result) = SHADING.create_module(&host.device);
+        assert_eq!(result, Ok(()));
+    }
+
     #[test]
     fn naga_s_headline_and_notes_are_kept() {
         let report = "\nShader 'x' parsing error: expected ';'\n   ┌─ wgsl:3:4\n   │\n 3 │ a\n   \
