@@ -177,7 +177,7 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One vertex of a mesh (the shading shader's `VertexIn` locations 0–4 and 14).
+    /// One vertex of a mesh (`VertexIn` in `shaders/mesh.wgsl`: locations 0–4 and 14).
     GpuVertex as "VertexIn" {
         position: Vec3,
         normal: Vec3,
@@ -331,8 +331,8 @@ gpu_struct! {
     }
 }
 
-/// The stages that read the shading shader's bind groups: the shading pass's and the vertex
-/// terms pass's (compute).
+/// The stages that read bind groups 0, 1 and 3 (`shaders/bindings.wgsl`): the shading and
+/// light-view passes' and the compute passes'.
 pub(crate) const SHADING_STAGES: wgpu::ShaderStages =
     wgpu::ShaderStages::VERTEX_FRAGMENT.union(wgpu::ShaderStages::COMPUTE);
 
