@@ -205,6 +205,12 @@ impl NonLocal {
     pub fn any(self) -> bool {
         self.shadows || self.transmission || self.interreflection || self.subsurface
     }
+
+    /// Whether the terms read light maps (each shadowed light's shadow map and subsurface
+    /// pyramid): the shader's `LIGHT_MAPS`.
+    pub fn light_maps(self) -> bool {
+        self.shadows || self.transmission || self.subsurface
+    }
 }
 
 #[cfg(test)]

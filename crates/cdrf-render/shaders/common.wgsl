@@ -1,12 +1,11 @@
-// Declarations shared by cdrf.wgsl and shadow.wgsl. cdrf-render composes each shader as: the
-// constants it generates from its Rust definitions (MAX_LIGHTS, MAX_SHADOW_LIGHTS,
-// PENUMBRA_TAPS, MODEL_*, LIGHT_*,
-// SURFACE_*; see src/shaders.rs), then this file, then the shader's own file.
-// Every struct here and there is `#[repr(C)]` on the Rust side (src/gpu_types.rs); a test holds
-// their sizes and offsets against naga's reflection of these declarations.
+// Declarations every pass shares, the shadow pass's included. cdrf-render composes each
+// shader from the constants it generates from its Rust definitions, then this file, then the
+// pass's parts (src/shaders.rs; docs/shading.md). Every struct is `#[repr(C)]` in
+// src/gpu_types.rs; a test holds sizes and offsets against naga's reflection.
 
-// One draw's transforms and its surface's factors (cdrf-render's surface module): bind group 2
-// of the shading pass, 1 of the shadow pass (dynamic offset into one buffer).
+// One draw's transforms and its surface's factors (cdrf-render's surface module): group 2,
+// binding 0 of the shading-side passes, group 1 of the shadow pass (dynamic offset into one
+// buffer).
 struct Draw {
     world_from_model: mat4x4<f32>,
     // Inverse transpose of world_from_model's upper 3×3 (columns in xyz).

@@ -1,8 +1,11 @@
 //! The data the shaders read, as `#[repr(C)]` structs of the same names and fields as the WGSL
-//! declarations (`shaders/common.wgsl`, `shaders/cdrf.wgsl`, `shaders/shadow.wgsl`). The unit
-//! test at the bottom holds every struct's size and field offsets against naga's reflection of
-//! the WGSL, so a field moved on one side only fails `cargo test`. Fields named `_pad*` are
+//! declarations (`shaders/common.wgsl`, `shaders/types.wgsl`, `shaders/interreflection.wgsl`,
+//! `shaders/shadow_pass.wgsl`). The unit test at the bottom holds every struct's size and field
+//! offsets against naga's reflection of every composed shader that declares it, so a field
+//! moved on one side only fails `cargo test`. Fields named `_pad*` are
 //! explicit padding to WGSL's alignment rules (vec3 and structs: 16 bytes).
+
+use std::mem::offset_of;
 
 use bytemuck::{Pod, Zeroable};
 use cdrf_core::glam::{Mat4, Vec2, Vec3, Vec4};
@@ -44,14 +47,22 @@ macro_rules! gpu_struct {
 }
 
 gpu_struct! {
-    /// One light of any kind (`Light`; see the WGSL for the fields of each kind).
+    /// One light of any kind (`Light`): `kind` says which fields it uses, the others are zero.
     GpuLight as "Light" {
-        to_light_or_position: Vec3,
+        /// Directional: unit vector toward the light, world space.
+        to_light: Vec3,
         kind: u32,
-        irradiance_or_intensity: Vec3,
+        /// Point, spot: position, world units.
+        position: Vec3,
         spot_cos_outer: f32,
-        spot_direction: Vec3,
+        /// Directional: irradiance facing the light.
+        irradiance: Vec3,
         spot_cos_inner: f32,
+        /// Point, spot: intensity (irradiance facing the light at d mm, times d²).
+        intensity: Vec3,
+        _pad0: f32,
+        spot_direction: Vec3,
+        _pad1: f32,
     }
 }
 
@@ -81,10 +92,14 @@ gpu_struct! {
 gpu_struct! {
     /// A material's parameters: bind group 1, binding 0 (`Material`).
     GpuMaterial as "Material" {
-        albedo_or_scale: Vec3,
+        /// Lambert: the albedo.
+        lambert_albedo: Vec3,
         _pad0: f32,
-        sigma_mm: Vec3,
+        /// Gaussian (analytic): the scale, and σ.
+        gaussian_scale: Vec3,
         _pad1: f32,
+        sigma_mm: Vec3,
+        _pad2: f32,
         lut_curvature_per_mm: [f32; 2],
         lut_size: [f32; 2],
         view_size: [f32; 2],
@@ -162,7 +177,7 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One vertex of a mesh (the shading shader's `VertexIn` locations 0–4 and 14).
+    /// One vertex of a mesh (`VertexIn` in `shaders/mesh.wgsl`: locations 0–4 and 14).
     GpuVertex as "VertexIn" {
         position: Vec3,
         normal: Vec3,
@@ -214,37 +229,56 @@ impl GpuVertex {
 }
 
 gpu_struct! {
+    /// One shadowed light's terms at a vertex (`LightTerms`; w unused): the visibility, and the
+    /// light through the material (T, or the gather G where the material gathers).
+    GpuLightTerms as "LightTerms" {
+        visibility: Vec4,
+        through: Vec4,
+    }
+}
+
+gpu_struct! {
     /// One vertex's non-local terms, written by the vertex terms pass and read by the shading
-    /// pass as its second vertex buffer (`VertexTerms`; locations 5–13 of `VertexTermsIn`).
+    /// pass as its second vertex buffer (`VertexTerms`; `VertexTermsIn` in
+    /// `shaders/shading_pass.wgsl`).
     GpuVertexTerms as "VertexTerms" {
-        visibility_0: Vec4,
-        transmission_0: Vec4,
-        visibility_1: Vec4,
-        transmission_1: Vec4,
-        visibility_2: Vec4,
-        transmission_2: Vec4,
-        visibility_3: Vec4,
-        transmission_3: Vec4,
+        lights: [GpuLightTerms; MAX_SHADOW_LIGHTS],
         radiance: Vec4,
         exitance: Vec4,
     }
 }
 
+/// The per-vertex light slots `shaders/shading_pass.wgsl` writes out by hand (stage inputs and
+/// outputs hold no arrays: `VertexTermsIn`, `VertexOut`, `slot_terms`) and
+/// `light_curvatures_per_mm`'s `vec4` holds. `tests/shaders.rs` counts them in the WGSL.
+const WGSL_LIGHT_SLOTS: usize = 4;
+const _: () = assert!(
+    MAX_SHADOW_LIGHTS == WGSL_LIGHT_SLOTS,
+    "MAX_SHADOW_LIGHTS changed: write out as many slots in shaders/shading_pass.wgsl"
+);
+
 impl GpuVertexTerms {
     /// The first shader location of the terms (`VertexTermsIn`).
     const FIRST_LOCATION: u32 = 5;
 
-    /// The second vertex buffer's attributes: one `vec4<f32>` per field, in order, but the
-    /// exitance (the inter-reflection's source, not shaded).
-    pub(crate) const ATTRIBUTES: [wgpu::VertexAttribute; 9] = {
+    /// The second vertex buffer's attributes: each light's visibility and `through`, then the
+    /// radiance (the exitance, the inter-reflection's source, is not shaded).
+    pub(crate) const ATTRIBUTES: [wgpu::VertexAttribute; 2 * MAX_SHADOW_LIGHTS + 1] = {
         let mut attributes = [wgpu::VertexAttribute {
             format: wgpu::VertexFormat::Float32x4,
             offset: 0,
             shader_location: 0,
-        }; 9];
+        }; 2 * MAX_SHADOW_LIGHTS + 1];
+        let mut k = 0;
+        while k < MAX_SHADOW_LIGHTS {
+            let light = offset_of!(GpuVertexTerms, lights) + k * size_of::<GpuLightTerms>();
+            attributes[2 * k].offset = (light + offset_of!(GpuLightTerms, visibility)) as u64;
+            attributes[2 * k + 1].offset = (light + offset_of!(GpuLightTerms, through)) as u64;
+            k += 1;
+        }
+        attributes[2 * MAX_SHADOW_LIGHTS].offset = offset_of!(GpuVertexTerms, radiance) as u64;
         let mut i = 0;
         while i < attributes.len() {
-            attributes[i].offset = Self::LAYOUT.fields[i].1 as u64;
             attributes[i].shader_location = Self::FIRST_LOCATION + i as u32;
             i += 1;
         }
@@ -254,6 +288,10 @@ impl GpuVertexTerms {
     /// Bytes per vertex.
     pub(crate) const STRIDE: u64 = size_of::<GpuVertexTerms>() as u64;
 }
+
+/// The shading pass's vertex attributes (the mesh's and the terms') fit WebGPU's default limit
+/// of 16.
+const _: () = assert!(GpuVertex::ATTRIBUTES.len() + GpuVertexTerms::ATTRIBUTES.len() <= 16);
 
 gpu_struct! {
     /// One patch of a mesh (cdrf-core's `patches::SurfacePatch`): the inter-reflection's
@@ -293,8 +331,8 @@ gpu_struct! {
     }
 }
 
-/// The stages that read the shading shader's bind groups: the shading pass's and the vertex
-/// terms pass's (compute).
+/// The stages that read bind groups 0, 1 and 3 (`shaders/bindings.wgsl`): the shading and
+/// light-view passes' and the compute passes'.
 pub(crate) const SHADING_STAGES: wgpu::ShaderStages =
     wgpu::ShaderStages::VERTEX_FRAGMENT.union(wgpu::ShaderStages::COMPUTE);
 
@@ -328,10 +366,11 @@ pub(crate) const fn uniform_layout_entry<T>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::shaders::{shading_shader_source, shadow_shader_source};
+    use crate::shaders::{SHADERS, SHADING, SHADOW};
 
-    /// The uniform structs, each declared in the shader(s) that read it.
-    const UNIFORMS: [StructLayout; 12] = [
+    /// The uniform and storage structs, each declared in the shader(s) that read it.
+    const LAYOUTS: [StructLayout; 13] = [
+        GpuLightTerms::LAYOUT,
         GpuVertexTerms::LAYOUT,
         GpuPatch::LAYOUT,
         GpuPatchMember::LAYOUT,
@@ -346,20 +385,24 @@ mod tests {
         GpuShadowPass::LAYOUT,
     ];
 
-    /// Differences between the Rust layouts and the WGSL module's structs of the same names
-    /// (every Rust layout whose struct the module declares; `required` must all be declared).
-    fn mismatches(source: &str, layouts: &[StructLayout], required: &[&str]) -> Vec<String> {
-        let module = naga::front::wgsl::parse_str(source).expect("WGSL parses");
-        let mut problems = Vec::new();
-        for name in required {
-            if !module
-                .types
-                .iter()
-                .any(|(_, ty)| ty.name.as_deref() == Some(name))
-            {
-                problems.push(format!("struct {name} is not declared in the WGSL"));
+    fn parse(source: &str) -> naga::Module {
+        naga::front::wgsl::parse_str(source).expect("WGSL parses")
+    }
+
+    /// The WGSL struct `name`'s members, if the module declares it.
+    fn members<'a>(module: &'a naga::Module, name: &str) -> Option<&'a [naga::StructMember]> {
+        module.types.iter().find_map(|(_, ty)| match &ty.inner {
+            naga::TypeInner::Struct { members, .. } if ty.name.as_deref() == Some(name) => {
+                Some(members.as_slice())
             }
-        }
+            _ => None,
+        })
+    }
+
+    /// Differences between the Rust layouts and the WGSL module's structs of the same names
+    /// (every Rust layout whose struct the module declares).
+    fn mismatches(module: &naga::Module, layouts: &[StructLayout]) -> Vec<String> {
+        let mut problems = Vec::new();
         for layout in layouts {
             let Some((_, ty)) = module
                 .types
@@ -398,27 +441,32 @@ mod tests {
         problems
     }
 
+    /// Every Rust layout matches its struct in every composed shader that declares it, and
+    /// some shader declares each.
     #[test]
-    fn uniform_structs_match_the_wgsl() {
-        let shading = mismatches(
-            &shading_shader_source(),
-            &UNIFORMS,
-            &[
-                "VertexTerms",
-                "Patch",
-                "PatchMember",
-                "Emitter",
-                "Light",
-                "Frame",
-                "PenumbraTap",
-                "Material",
-                "Draw",
-                "ShadowLight",
-                "Shadows",
-            ],
-        );
-        let shadow = mismatches(&shadow_shader_source(), &UNIFORMS, &["Draw", "ShadowPass"]);
-        let problems: Vec<String> = shading.into_iter().chain(shadow).collect();
+    fn gpu_structs_match_the_wgsl() {
+        let mut problems = Vec::new();
+        let mut declared = Vec::new();
+        for shader in SHADERS {
+            let module = parse(shader.compose().source());
+            for problem in mismatches(&module, &LAYOUTS) {
+                problems.push(format!("{}: {problem}", shader.label));
+            }
+            declared.extend(
+                LAYOUTS
+                    .iter()
+                    .filter(|layout| members(&module, layout.wgsl_name).is_some())
+                    .map(|layout| layout.wgsl_name),
+            );
+        }
+        for layout in &LAYOUTS {
+            if !declared.contains(&layout.wgsl_name) {
+                problems.push(format!(
+                    "struct {} is declared by no shader",
+                    layout.wgsl_name
+                ));
+            }
+        }
         assert!(
             problems.is_empty(),
             "layout mismatches:\n{}",
@@ -430,7 +478,7 @@ mod tests {
     /// and a field renamed or retyped is caught.
     #[test]
     fn a_shifted_wgsl_field_is_caught() {
-        let source = shading_shader_source();
+        let source = SHADING.compose().source().to_string();
         let shifted = source.replace(
             "    camera_is_point: u32,\n",
             "    camera_is_point: u32,\n    inserted: f32,\n",
@@ -439,7 +487,7 @@ mod tests {
             shifted, source,
             "the Frame declaration changed; update this test"
         );
-        let problems = mismatches(&shifted, &UNIFORMS, &[]);
+        let problems = mismatches(&parse(&shifted), &LAYOUTS);
         println!("{}", problems.join("\n"));
         assert!(
             problems.iter().any(|p| p.starts_with("Frame:")),
@@ -454,38 +502,33 @@ mod tests {
             retyped, source,
             "the Shadows declaration changed; update this test"
         );
-        let problems = mismatches(&retyped, &UNIFORMS, &[]);
+        let problems = mismatches(&parse(&retyped), &LAYOUTS);
         assert!(
             problems.iter().any(|p| p.starts_with("Shadows:")),
             "{problems:?}"
         );
+        assert!(mismatches(&parse(SHADOW.compose().source()), &LAYOUTS).is_empty());
     }
 
-    /// The vertex attributes the pipelines declare are the shader's `VertexIn` locations.
+    /// (name, location) of each member of the WGSL struct `name`.
+    fn locations_of(module: &naga::Module, name: &str) -> Vec<(String, u32)> {
+        members(module, name)
+            .unwrap_or_else(|| panic!("{name} declared"))
+            .iter()
+            .filter_map(|member| match member.binding {
+                Some(naga::Binding::Location { location, .. }) => {
+                    Some((member.name.clone().unwrap_or_default(), location))
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The vertex attributes the pipelines declare are the shader's `VertexIn` and
+    /// `VertexTermsIn` locations.
     #[test]
     fn vertex_attributes_match_the_wgsl() {
-        let module = naga::front::wgsl::parse_str(&shading_shader_source()).expect("parses");
-        // (name, location) of each member of the WGSL struct `name`.
-        let locations_of = |name: &str| -> Vec<(String, u32)> {
-            let (_, ty) = module
-                .types
-                .iter()
-                .find(|(_, ty)| ty.name.as_deref() == Some(name))
-                .unwrap_or_else(|| panic!("{name} declared"));
-            let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-                panic!("{name} is a struct");
-            };
-            members
-                .iter()
-                .filter_map(|member| match member.binding {
-                    Some(naga::Binding::Location { location, .. }) => {
-                        Some((member.name.clone().unwrap_or_default(), location))
-                    }
-                    _ => None,
-                })
-                .collect()
-        };
-        let locations = locations_of("VertexIn");
+        let module = parse(SHADING.compose().source());
         let names = [
             "position",
             "normal",
@@ -499,7 +542,7 @@ mod tests {
             .zip(names)
             .map(|(attribute, name)| (name.to_string(), attribute.shader_location))
             .collect();
-        assert_eq!(locations, expected);
+        assert_eq!(locations_of(&module, "VertexIn"), expected);
         let fields: Vec<usize> = GpuVertex::LAYOUT.fields.iter().map(|f| f.1).collect();
         let offsets: Vec<usize> = GpuVertex::ATTRIBUTES
             .iter()
@@ -507,13 +550,23 @@ mod tests {
             .collect();
         assert_eq!(fields, offsets);
 
-        let locations = locations_of("VertexTermsIn");
-        let expected: Vec<(String, u32)> = GpuVertexTerms::LAYOUT
-            .fields
-            .iter()
+        let names = (0..MAX_SHADOW_LIGHTS)
+            .flat_map(|k| [format!("visibility_{k}"), format!("through_{k}")])
+            .chain(["radiance".to_string()]);
+        let expected: Vec<(String, u32)> = names
             .zip(GpuVertexTerms::ATTRIBUTES)
-            .map(|(field, attribute)| (field.0.to_string(), attribute.shader_location))
+            .map(|(name, attribute)| (name, attribute.shader_location))
             .collect();
-        assert_eq!(locations, expected);
+        assert_eq!(locations_of(&module, "VertexTermsIn"), expected);
+        // Each slot's attributes are its light's fields, in order.
+        let slot = size_of::<GpuLightTerms>() as u64;
+        for (k, pair) in GpuVertexTerms::ATTRIBUTES
+            .chunks(2)
+            .take(MAX_SHADOW_LIGHTS)
+            .enumerate()
+        {
+            assert_eq!(pair[0].offset, k as u64 * slot);
+            assert_eq!(pair[1].offset, k as u64 * slot + 16);
+        }
     }
 }

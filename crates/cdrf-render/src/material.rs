@@ -226,7 +226,8 @@ impl MaterialFactory {
     ) -> Result<GpuMaterialEntry, MaterialError> {
         let identity = ViewCorrection::identity();
         let mut uniforms = GpuMaterial {
-            albedo_or_scale: Vec3::ONE,
+            lambert_albedo: Vec3::ONE,
+            gaussian_scale: Vec3::ONE,
             transmission_length_mm: Vec3::ONE,
             subsurface_transmission: Vec3::ONE,
             ..bytemuck::Zeroable::zeroed()
@@ -277,14 +278,14 @@ impl MaterialFactory {
                     }
                     GaussianEvaluation::Analytic => {
                         uniforms.sigma_mm = Vec3::from_array(model.sigma_mm());
-                        uniforms.albedo_or_scale = Vec3::from_array(model.scale());
+                        uniforms.gaussian_scale = Vec3::from_array(model.scale());
                         (None, view_correction)
                     }
                 }
             }
             MaterialDesc::Lambert { albedo } => {
                 check_finite_non_negative("albedo", &albedo)?;
-                uniforms.albedo_or_scale = Vec3::from_array(albedo);
+                uniforms.lambert_albedo = Vec3::from_array(albedo);
                 (None, &identity)
             }
             MaterialDesc::Curvature { range_per_mm } => {

@@ -1,7 +1,7 @@
 //! The shading pipelines, built on demand and cached per target, shading model and
 //! non-local terms, the compute passes' (the vertex terms and, with the inter-reflection, its
 //! emitters, bounces and gather; per shading model and non-local terms) and the subsurface map
-//! pass's.
+//! pass's, from the shader modules of [`crate::shaders`] (one per pass).
 
 use std::collections::HashMap;
 
@@ -11,7 +11,7 @@ use crate::error::PrepareError;
 use crate::gpu_data::block_on;
 use crate::gpu_types::{GpuDraw, GpuVertex, GpuVertexTerms, uniform_layout_entry};
 use crate::non_local::SUBSURFACE_FORMAT;
-use crate::shaders::{Model, shading_shader_source};
+use crate::shaders::{INTERREFLECTION, LIGHT_VIEW, Model, SHADING, Shader, VERTEX_TERMS};
 use crate::target::{LutFiltering, Options, TargetDesc};
 
 /// The pipeline variants' key: target, shading model, non-local terms.
@@ -23,9 +23,7 @@ type PipelineKey = (TargetDesc, Model, NonLocal);
 /// per pixel).
 pub(crate) fn uses_vertex_terms(model: Model, non_local: NonLocal) -> bool {
     model != Model::Curvature
-        && (non_local.interreflection
-            || (model != Model::Lambert
-                && (non_local.shadows || non_local.transmission || non_local.subsurface)))
+        && (non_local.interreflection || (model != Model::Lambert && non_local.light_maps()))
 }
 
 /// Whether a device with these limits runs the vertex terms pass: compute shaders of 64
@@ -37,17 +35,35 @@ pub(crate) fn runs_vertex_terms(limits: &wgpu::Limits) -> bool {
         && limits.max_compute_invocations_per_workgroup >= 64
 }
 
-/// The shading shader, its layouts and the pipelines built from them.
+/// The shader modules, their layouts and the pipelines built from them.
 pub(crate) struct Pipelines {
-    shader: wgpu::ShaderModule,
+    /// The shading pass's module (`vs_main`, `vs_main_terms`, `fs_main`).
+    shading: wgpu::ShaderModule,
+    /// The light-view pass's module (`vs_light_view`, `fs_subsurface_map`).
+    light_view: wgpu::ShaderModule,
+    /// The first module that failed to compile: the diagnostic at its part's file and line,
+    /// returned by every pipeline built after.
+    shader_error: Option<String>,
+    /// The shading and light-view passes' layout.
     layout: wgpu::PipelineLayout,
-    /// The compute passes' group 2 (the draw's transforms with a dynamic offset, the mesh's
-    /// vertices, the terms they write, the mesh's patches and the frame's emitters) and their
-    /// pipeline layout; `None` on a device without compute shaders or storage buffers.
-    terms_layouts: Option<(wgpu::BindGroupLayout, wgpu::PipelineLayout)>,
+    /// What the compute passes are built from; `None` on a device without compute shaders or
+    /// storage buffers.
+    compute: Option<ComputeShaders>,
     cache: HashMap<PipelineKey, wgpu::RenderPipeline>,
     terms_cache: HashMap<(Model, NonLocal), TermsPipelines>,
     subsurface_map: Option<wgpu::RenderPipeline>,
+}
+
+/// The compute passes' layouts and modules.
+struct ComputeShaders {
+    /// Their group 2 (the draw's transforms with a dynamic offset, the mesh's vertices, the
+    /// terms they write, the mesh's patches and the frame's emitters).
+    group_layout: wgpu::BindGroupLayout,
+    layout: wgpu::PipelineLayout,
+    /// `cs_vertex_terms`'s module.
+    vertex_terms: wgpu::ShaderModule,
+    /// The inter-reflection's module.
+    interreflection: wgpu::ShaderModule,
 }
 
 /// The compute passes of a shading model and its non-local terms.
@@ -65,10 +81,16 @@ impl Pipelines {
         device: &wgpu::Device,
         bind_group_layouts: [&wgpu::BindGroupLayout; 4],
     ) -> Self {
-        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("cdrf shader"),
-            source: wgpu::ShaderSource::Wgsl(shading_shader_source().into()),
-        });
+        let mut shader_error = None;
+        let mut create = |shader: &Shader| {
+            let (module, result) = shader.create_module(device);
+            if let Err(error) = result {
+                shader_error.get_or_insert(error);
+            }
+            module
+        };
+        let shading = create(&SHADING);
+        let light_view = create(&LIGHT_VIEW);
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("cdrf pipeline layout"),
             bind_group_layouts: &bind_group_layouts.map(Some),
@@ -84,8 +106,8 @@ impl Pipelines {
             },
             count: None,
         };
-        let terms_layouts = runs_vertex_terms(&device.limits()).then(|| {
-            let terms_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let compute = runs_vertex_terms(&device.limits()).then(|| {
+            let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("cdrf vertex terms layout"),
                 entries: &[
                     uniform_layout_entry::<GpuDraw>(0, wgpu::ShaderStages::COMPUTE, true),
@@ -98,22 +120,29 @@ impl Pipelines {
                 ],
             });
             let [frame, material, _, shadows] = bind_group_layouts;
-            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("cdrf vertex terms pipeline layout"),
                 bind_group_layouts: &[
                     Some(frame),
                     Some(material),
-                    Some(&terms_layout),
+                    Some(&group_layout),
                     Some(shadows),
                 ],
                 immediate_size: 0,
             });
-            (terms_layout, pipeline_layout)
+            ComputeShaders {
+                group_layout,
+                layout,
+                vertex_terms: create(&VERTEX_TERMS),
+                interreflection: create(&INTERREFLECTION),
+            }
         });
         Self {
-            shader,
+            shading,
+            light_view,
+            compute,
+            shader_error,
             layout,
-            terms_layouts,
             terms_cache: HashMap::new(),
             cache: HashMap::new(),
             subsurface_map: None,
@@ -132,13 +161,13 @@ impl Pipelines {
 
     /// Whether the device runs the vertex terms pass (compute shaders, storage buffers).
     pub(crate) fn has_vertex_terms(&self) -> bool {
-        self.terms_layouts.is_some()
+        self.compute.is_some()
     }
 
-    /// The compute passes' group 2 layout (bindings 0 and 7–12 of the shading shader), if the
-    /// device runs them.
+    /// The compute passes' group 2 layout (bindings 0 and 7–12 of `vertex_terms_pass.wgsl` and
+    /// `interreflection_pass.wgsl`), if the device runs them.
     pub(crate) fn terms_layout(&self) -> Option<&wgpu::BindGroupLayout> {
-        self.terms_layouts.as_ref().map(|(layout, _)| layout)
+        self.compute.as_ref().map(|compute| &compute.group_layout)
     }
 
     /// The compute passes' pipelines of a shading model and its non-local terms, if built.
@@ -165,6 +194,12 @@ impl Pipelines {
         let key = (target, model, non_local);
         if self.cache.contains_key(&key) {
             return Ok(());
+        }
+        if let Some(message) = &self.shader_error {
+            return Err(PrepareError::Pipeline {
+                target,
+                message: message.clone(),
+            });
         }
         let terms = uses_vertex_terms(model, non_local);
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -195,30 +230,43 @@ impl Pipelines {
             attributes: &GpuVertexTerms::ATTRIBUTES,
         });
         let buffers = [vertices, vertex_terms];
-        let terms_pipeline_layout = self
-            .terms_layouts
+        let terms_shaders = self
+            .compute
             .as_ref()
-            .filter(|_| terms && !self.terms_cache.contains_key(&(model, non_local)))
-            .map(|(_, layout)| layout);
-        let terms_pipeline = terms_pipeline_layout.map(|layout| {
-            let compute = |label, entry_point| {
+            .filter(|_| terms && !self.terms_cache.contains_key(&(model, non_local)));
+        let terms_pipeline = terms_shaders.map(|shaders| {
+            let compute = |label, module, entry_point| {
                 device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                     label: Some(label),
-                    layout: Some(layout),
-                    module: &self.shader,
+                    layout: Some(&shaders.layout),
+                    module,
                     entry_point: Some(entry_point),
                     compilation_options: compilation_options.clone(),
                     cache: None,
                 })
             };
+            let interreflection = &shaders.interreflection;
             TermsPipelines {
-                vertex_terms: compute("cdrf vertex terms pipeline", "cs_vertex_terms"),
+                vertex_terms: compute(
+                    "cdrf vertex terms pipeline",
+                    &shaders.vertex_terms,
+                    "cs_vertex_terms",
+                ),
                 interreflection: non_local.interreflection.then(|| {
                     [
-                        compute("cdrf patch emitters pipeline", "cs_patch_emitters"),
-                        compute("cdrf emitter bounce pipeline", "cs_emitter_bounce"),
+                        compute(
+                            "cdrf patch emitters pipeline",
+                            interreflection,
+                            "cs_patch_emitters",
+                        ),
+                        compute(
+                            "cdrf emitter bounce pipeline",
+                            interreflection,
+                            "cs_emitter_bounce",
+                        ),
                         compute(
                             "cdrf vertex interreflection pipeline",
+                            interreflection,
                             "cs_vertex_interreflection",
                         ),
                     ]
@@ -229,7 +277,7 @@ impl Pipelines {
             label: Some("cdrf pipeline"),
             layout: Some(&self.layout),
             vertex: wgpu::VertexState {
-                module: &self.shader,
+                module: &self.shading,
                 entry_point: Some(if terms { "vs_main_terms" } else { "vs_main" }),
                 compilation_options: compilation_options.clone(),
                 buffers: if terms { &buffers } else { &buffers[..1] },
@@ -252,7 +300,7 @@ impl Pipelines {
                 ..Default::default()
             },
             fragment: Some(wgpu::FragmentState {
-                module: &self.shader,
+                module: &self.shading,
                 entry_point: Some("fs_main"),
                 compilation_options,
                 targets: &[Some(wgpu::ColorTargetState {
@@ -315,6 +363,20 @@ impl Pipelines {
         constants: &[(&str, f64)],
         targets: &[Option<wgpu::ColorTargetState>],
     ) -> Result<wgpu::RenderPipeline, PrepareError> {
+        let target_desc = |targets: &[Option<wgpu::ColorTargetState>]| {
+            let format = targets
+                .iter()
+                .flatten()
+                .next()
+                .map_or(SUBSURFACE_FORMAT, |t| t.format);
+            TargetDesc::new(format)
+        };
+        if let Some(message) = &self.shader_error {
+            return Err(PrepareError::Pipeline {
+                target: target_desc(targets),
+                message: message.clone(),
+            });
+        }
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let compilation_options = wgpu::PipelineCompilationOptions {
             constants,
@@ -324,7 +386,7 @@ impl Pipelines {
             label: Some(label),
             layout: Some(&self.layout),
             vertex: wgpu::VertexState {
-                module: &self.shader,
+                module: &self.light_view,
                 entry_point: Some("vs_light_view"),
                 compilation_options: compilation_options.clone(),
                 buffers: &[Some(wgpu::VertexBufferLayout {
@@ -347,7 +409,7 @@ impl Pipelines {
             }),
             multisample: Default::default(),
             fragment: Some(wgpu::FragmentState {
-                module: &self.shader,
+                module: &self.light_view,
                 entry_point: Some(fragment),
                 compilation_options,
                 targets,
@@ -356,13 +418,8 @@ impl Pipelines {
             cache: None,
         });
         if let Some(error) = block_on(scope.pop()) {
-            let format = targets
-                .iter()
-                .flatten()
-                .next()
-                .map_or(SUBSURFACE_FORMAT, |t| t.format);
             return Err(PrepareError::Pipeline {
-                target: TargetDesc::new(format),
+                target: target_desc(targets),
                 message: error.to_string(),
             });
         }

@@ -580,8 +580,7 @@ impl Renderer {
         }
         self.emitters.reserve(device, emitter_count);
         let mut commands = Vec::new();
-        let light_maps =
-            frame.non_local.shadows || frame.non_local.transmission || frame.non_local.subsurface;
+        let light_maps = frame.non_local.light_maps();
         if light_maps && !prepared.is_empty() {
             let casters: Vec<ShadowCaster<'_>> = prepared
                 .iter()
@@ -1002,15 +1001,15 @@ fn gpu_light(light: &Light) -> Result<GpuLight, &'static str> {
     };
     Ok(match *light {
         Light::Directional(light) => GpuLight {
-            to_light_or_position: unit(light.to_light, "direction is zero or not finite")?,
+            to_light: unit(light.to_light, "direction is zero or not finite")?,
             kind: GPU_LIGHT_DIRECTIONAL,
-            irradiance_or_intensity: colour(light.irradiance, "irradiance must be finite and ≥ 0")?,
+            irradiance: colour(light.irradiance, "irradiance must be finite and ≥ 0")?,
             ..bytemuck::Zeroable::zeroed()
         },
         Light::Point(light) => GpuLight {
-            to_light_or_position: position(light.position)?,
+            position: position(light.position)?,
             kind: GPU_LIGHT_POINT,
-            irradiance_or_intensity: colour(light.intensity, "intensity must be finite and ≥ 0")?,
+            intensity: colour(light.intensity, "intensity must be finite and ≥ 0")?,
             ..bytemuck::Zeroable::zeroed()
         },
         Light::Spot(light) => {
@@ -1020,15 +1019,13 @@ fn gpu_light(light: &Light) -> Result<GpuLight, &'static str> {
                 return Err("spot angles must satisfy 0 ≤ inner < outer ≤ π/2");
             }
             GpuLight {
-                to_light_or_position: position(light.position)?,
+                position: position(light.position)?,
                 kind: GPU_LIGHT_SPOT,
-                irradiance_or_intensity: colour(
-                    light.intensity,
-                    "intensity must be finite and ≥ 0",
-                )?,
+                intensity: colour(light.intensity, "intensity must be finite and ≥ 0")?,
                 spot_cos_outer: outer.cos(),
                 spot_direction: unit(light.direction, "spot direction is zero or not finite")?,
                 spot_cos_inner: inner.cos(),
+                ..bytemuck::Zeroable::zeroed()
             }
         }
     })

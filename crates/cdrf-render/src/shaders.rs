@@ -1,13 +1,19 @@
 //! The WGSL of the passes, composed from the files in this crate's `shaders/` folder and the
 //! constants both sides share, which are defined here once and written into the WGSL.
 //!
-//! Each shader is: [`wgsl_constants`], then `shaders/common.wgsl` (the declarations the passes
-//! share), then the shader's own file.
+//! Each shader module is [`wgsl_constants`] followed by its [`Shader::parts`] in order:
+//! `common.wgsl`, then types, bindings and functions by topic, and last the pass's own file
+//! (`*_pass.wgsl`: its group 2 and entry points). [`ComposedShader`] remembers where each part
+//! starts, so an error at a line of the composed source is reported at the part's own file and
+//! line ([`ComposedShader::diagnostic`]). `docs/shading.md` describes the files and passes.
 
+use std::fmt;
 use std::mem::offset_of;
+use std::ops::Range;
 
 use cdrf_core::ShadingModel;
 
+use crate::gpu_data::block_on;
 use crate::gpu_types::GpuVertex;
 use crate::target::GaussianEvaluation;
 
@@ -15,29 +21,27 @@ use crate::target::GaussianEvaluation;
 pub const MAX_LIGHTS: usize = 16;
 /// Lights with a shadow map: the first four of a frame, directional lights first (an
 /// orthographic map each; point and spot lights a perspective map, or a cube of six when the
-/// light is among the draws). Later ones shade with the local model only.
+/// light is among the draws). Later ones shade with the local model only. Each has a slot of
+/// the shading pass's per-vertex terms, written out by hand in `shading_pass.wgsl` (stage
+/// inputs and outputs hold no arrays); `src/gpu_types.rs` and `tests/shaders.rs` hold the
+/// slots to this constant.
 pub const MAX_SHADOW_LIGHTS: usize = 4;
 /// Faces of a shadowed light's map at most (a cube).
 pub(crate) const MAX_SHADOW_FACES: usize = 6;
 /// Penumbra taps per shadowed light: the centre and a Vogel spiral out to 2σ, the same spiral
-/// at every vertex and every tap read. Not fewer taps turned per vertex, nor a few probes
-/// deciding whether to read the rest: neighbouring vertices that read different taps disagree
-/// about a shadow's edge and paint blotches or jagged steps (12 taps turned per vertex with 5
-/// probes: 1.55 × the local model's pixel-scale roughness on the knot; 32 fixed taps, all
-/// read: 1.12 ×). Each tap's lit-or-not is a step, so a shadow's edge crossing the spiral
-/// moves the sum in steps of a tap's weight: with 32 taps (a weight of up to 7 % each) they
-/// showed as flame-like streaks along the knot's cast shadows (its shadows alone 1.17 × the
-/// local model's roughness at 512²), with 256 not (0.98 ×; `tests/tests/non_local.rs`). The
-/// vertex terms pass reads them once per vertex.
+/// at every vertex, every tap read, so the visibility is a continuous function of the point
+/// (interpolating it between vertices cannot blotch). Each tap's lit-or-not is a step of its
+/// weight: this many keeps the steps from showing as streaks along cast shadows
+/// (`tests/tests/non_local.rs`; `docs/research/shader-notes.md`).
 pub(crate) const PENUMBRA_TAPS: usize = 256;
 /// Samples of the subsurface gather's far-field kernel R_far(d), on a square-root grid in d
 /// (fine where R_far changes fastest).
 pub(crate) const SUBSURFACE_KERNEL_SAMPLES: usize = 128;
 
-/// The spherical-harmonics order of the environment light: bands 0…4, 25 coefficients. Order 2
-/// (the classic irradiance map's 9) misses up to 20 % of the brightest radiance under a sun for
-/// the measured table, whose rows are flatter than cos θ near the normal; order 4 keeps it
-/// under 4 % (`crates/cdrf-core/tests/environment.rs`).
+/// The spherical-harmonics order of the environment light: bands 0…4, 25 coefficients. The
+/// measured table's rows are flatter than cos θ near the normal, which order 2 (the classic
+/// irradiance map's 9) misses by up to 20 % of the brightest radiance under a sun; order 4
+/// keeps it under 4 % (`crates/cdrf-core/tests/environment.rs`).
 pub const ENVIRONMENT_SH_ORDER: usize = 4;
 pub(crate) const ENVIRONMENT_SH_BANDS: usize = ENVIRONMENT_SH_ORDER + 1;
 pub(crate) const ENVIRONMENT_SH_COEFFICIENTS: usize = ENVIRONMENT_SH_BANDS * ENVIRONMENT_SH_BANDS;
@@ -52,11 +56,6 @@ pub(crate) const GPU_LIGHT_SPOT: u32 = 2;
 /// `ShadowLight.projection` in the WGSL.
 pub(crate) const GPU_SHADOW_ORTHOGRAPHIC: u32 = 0;
 pub(crate) const GPU_SHADOW_PERSPECTIVE: u32 = 1;
-
-const COMMON: &str = include_str!("../shaders/common.wgsl");
-const SHADING: &str = include_str!("../shaders/cdrf.wgsl");
-const SHADOW: &str = include_str!("../shaders/shadow.wgsl");
-const SUBSURFACE_REDUCE: &str = include_str!("../shaders/subsurface_reduce.wgsl");
 
 /// The shader's code path for a material (its `MODEL` override and `MODEL_*` constants): the
 /// [`ShadingModel`], with the Gaussian's split by [`GaussianEvaluation`].
@@ -116,8 +115,8 @@ pub fn wgsl_constants() -> String {
     ] {
         wgsl.push_str(&format!("const {name}: u32 = {value}u;\n"));
     }
-    // Where the vertex terms pass finds a vertex's attributes in the mesh's vertex buffer,
-    // read as f32s.
+    // Where the compute passes find a vertex's attributes in the mesh's vertex buffer, read
+    // as f32s.
     let float = size_of::<f32>();
     for (name, value) in [
         ("VERTEX_FLOATS", GpuVertex::STRIDE as usize / float),
@@ -140,21 +139,395 @@ pub fn wgsl_constants() -> String {
     wgsl
 }
 
-/// The WGSL of every shading pipeline (`shaders/cdrf.wgsl`), composed.
-pub fn shading_shader_source() -> String {
-    compose(SHADING)
+/// One WGSL file of this crate's `shaders/` folder.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Part {
+    /// Its path in this crate, e.g. `shaders/specular.wgsl`.
+    pub path: &'static str,
+    /// Its text.
+    pub source: &'static str,
 }
 
-/// The WGSL of the shadow pass (`shaders/shadow.wgsl`), composed.
+macro_rules! part {
+    ($file:literal) => {
+        Part {
+            path: concat!("shaders/", $file),
+            source: include_str!(concat!("../shaders/", $file)),
+        }
+    };
+}
+
+/// The parts, one per file; what each holds is in its header and `docs/shading.md`.
+mod part {
+    use super::Part;
+
+    pub(super) const COMMON: Part = part!("common.wgsl");
+    pub(super) const MATHS: Part = part!("maths.wgsl");
+    pub(super) const OVERRIDES: Part = part!("overrides.wgsl");
+    pub(super) const TYPES: Part = part!("types.wgsl");
+    pub(super) const BINDINGS: Part = part!("bindings.wgsl");
+    pub(super) const MESH: Part = part!("mesh.wgsl");
+    pub(super) const COMPUTE_MESH: Part = part!("compute_mesh.wgsl");
+    pub(super) const LIGHTS: Part = part!("lights.wgsl");
+    pub(super) const TABLES: Part = part!("tables.wgsl");
+    pub(super) const GAUSSIAN: Part = part!("gaussian.wgsl");
+    pub(super) const COLOUR: Part = part!("colour.wgsl");
+    pub(super) const REFLECTANCE: Part = part!("reflectance.wgsl");
+    pub(super) const ENVIRONMENT: Part = part!("environment.wgsl");
+    pub(super) const SPECULAR: Part = part!("specular.wgsl");
+    pub(super) const SURFACE: Part = part!("surface.wgsl");
+    pub(super) const LIGHT_SPACE: Part = part!("light_space.wgsl");
+    pub(super) const PENUMBRA: Part = part!("penumbra.wgsl");
+    pub(super) const TRANSMISSION: Part = part!("transmission.wgsl");
+    pub(super) const GATHER: Part = part!("gather.wgsl");
+    pub(super) const INTERREFLECTION: Part = part!("interreflection.wgsl");
+    pub(super) const SHADING_PASS: Part = part!("shading_pass.wgsl");
+    pub(super) const VERTEX_TERMS_PASS: Part = part!("vertex_terms_pass.wgsl");
+    pub(super) const INTERREFLECTION_PASS: Part = part!("interreflection_pass.wgsl");
+    pub(super) const LIGHT_VIEW_PASS: Part = part!("light_view_pass.wgsl");
+    pub(super) const SHADOW_PASS: Part = part!("shadow_pass.wgsl");
+    pub(super) const SUBSURFACE_REDUCE_PASS: Part = part!("subsurface_reduce_pass.wgsl");
+}
+
+/// One shader module: a label and the parts composed after the generated constants.
+#[derive(Clone, Copy, Debug)]
+pub struct Shader {
+    /// The module's label (wgpu's, and the naga test's).
+    pub label: &'static str,
+    /// Its parts, in order.
+    pub parts: &'static [Part],
+}
+
+/// The shading pass: `vs_main`, `vs_main_terms` and `fs_main`.
+pub const SHADING: Shader = Shader {
+    label: "cdrf shading",
+    parts: &[
+        part::COMMON,
+        part::MATHS,
+        part::OVERRIDES,
+        part::TYPES,
+        part::BINDINGS,
+        part::MESH,
+        part::LIGHTS,
+        part::TABLES,
+        part::GAUSSIAN,
+        part::COLOUR,
+        part::REFLECTANCE,
+        part::ENVIRONMENT,
+        part::SPECULAR,
+        part::SURFACE,
+        part::LIGHT_SPACE,
+        part::PENUMBRA,
+        part::TRANSMISSION,
+        part::GATHER,
+        part::SHADING_PASS,
+    ],
+};
+
+/// The vertex terms pass: `cs_vertex_terms`.
+pub const VERTEX_TERMS: Shader = Shader {
+    label: "cdrf vertex terms",
+    parts: &[
+        part::COMMON,
+        part::MATHS,
+        part::OVERRIDES,
+        part::TYPES,
+        part::BINDINGS,
+        part::MESH,
+        part::COMPUTE_MESH,
+        part::LIGHTS,
+        part::TABLES,
+        part::GAUSSIAN,
+        part::REFLECTANCE,
+        part::LIGHT_SPACE,
+        part::PENUMBRA,
+        part::TRANSMISSION,
+        part::GATHER,
+        part::VERTEX_TERMS_PASS,
+    ],
+};
+
+/// The inter-reflection's passes: `cs_patch_emitters`, `cs_emitter_bounce` and
+/// `cs_vertex_interreflection`.
+pub const INTERREFLECTION: Shader = Shader {
+    label: "cdrf interreflection",
+    parts: &[
+        part::COMMON,
+        part::MATHS,
+        part::OVERRIDES,
+        part::TYPES,
+        part::BINDINGS,
+        part::MESH,
+        part::COMPUTE_MESH,
+        part::LIGHTS,
+        part::TABLES,
+        part::ENVIRONMENT,
+        part::INTERREFLECTION,
+        part::INTERREFLECTION_PASS,
+    ],
+};
+
+/// The light-view pass: `vs_light_view` and `fs_subsurface_map`.
+pub const LIGHT_VIEW: Shader = Shader {
+    label: "cdrf light view",
+    parts: &[
+        part::COMMON,
+        part::TYPES,
+        part::BINDINGS,
+        part::MESH,
+        part::LIGHTS,
+        part::LIGHT_SPACE,
+        part::LIGHT_VIEW_PASS,
+    ],
+};
+
+/// The shadow pass: `vs_shadow` and `fs_shadow_distance`.
+pub const SHADOW: Shader = Shader {
+    label: "cdrf shadow",
+    parts: &[part::COMMON, part::SHADOW_PASS],
+};
+
+/// The subsurface pyramid's reduction: `vs_fullscreen` and `fs_reduce`.
+pub const SUBSURFACE_REDUCE: Shader = Shader {
+    label: "cdrf subsurface reduce",
+    parts: &[part::COMMON, part::SUBSURFACE_REDUCE_PASS],
+};
+
+/// Every shader module of the crate.
+pub const SHADERS: [Shader; 6] = [
+    SHADING,
+    VERTEX_TERMS,
+    INTERREFLECTION,
+    LIGHT_VIEW,
+    SHADOW,
+    SUBSURFACE_REDUCE,
+];
+
+/// Where the generated constants appear in diagnostics.
+const GENERATED: &str = "src/shaders.rs (generated constants)";
+
+impl Shader {
+    /// The module's WGSL: the generated constants and the parts.
+    pub fn compose(&self) -> ComposedShader {
+        compose(self.parts)
+    }
+
+    /// Creates the module. A WGSL error (a broken part) comes back as the diagnostic at the
+    /// part's file and line, beside the module wgpu made anyway (pipelines made from it fail).
+    pub(crate) fn create_module(
+        &self,
+        device: &wgpu::Device,
+    ) -> (wgpu::ShaderModule, Result<(), String>) {
+        let composed = self.compose();
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(self.label),
+            source: wgpu::ShaderSource::Wgsl(composed.source().into()),
+        });
+        let Some(error) = block_on(scope.pop()) else {
+            return (module, Ok(()));
+        };
+        let info = block_on(module.get_compilation_info());
+        let mut reports: Vec<String> = info
+            .messages
+            .iter()
+            .filter(|m| m.message_type == wgpu::CompilationMessageType::Error)
+            .map(|m| {
+                let labels: Vec<(Range<usize>, &str)> = m
+                    .location
+                    .iter()
+                    .map(|l| (l.offset as usize..(l.offset + l.length) as usize, ""))
+                    .collect();
+                composed.diagnostic(&naga_message(&m.message), &labels)
+            })
+            .collect();
+        if reports.is_empty() {
+            reports.push(error.to_string());
+        }
+        (
+            module,
+            Err(format!("{}: {}", self.label, reports.join("\n"))),
+        )
+    }
+}
+
+/// The headline and notes of naga's report as wgpu renders it (which quotes the composed
+/// source: its locations are replaced by the part's).
+fn naga_message(report: &str) -> String {
+    let mut lines = report.lines().map(str::trim).filter(|l| !l.is_empty());
+    let first = lines.next().unwrap_or_default();
+    let headline = first.find("error: ").map_or(first, |i| &first[i + 7..]);
+    let notes = lines.filter_map(|l| l.strip_prefix("= "));
+    std::iter::once(headline.to_string())
+        .chain(notes.map(|note| format!("  = {note}")))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Composes the generated constants and `parts` into one WGSL source, remembering where each
+/// part starts.
+pub fn compose(parts: &[Part]) -> ComposedShader {
+    let mut source = wgsl_constants();
+    let mut starts = vec![(0, GENERATED)];
+    for part in parts {
+        source.push('\n');
+        starts.push((source.len(), part.path));
+        source.push_str(part.source);
+        if !source.ends_with('\n') {
+            source.push('\n');
+        }
+    }
+    ComposedShader { source, starts }
+}
+
+/// A composed shader and its source map.
+#[derive(Clone, Debug)]
+pub struct ComposedShader {
+    source: String,
+    /// The byte offset where each piece starts, and its path (the generated constants first).
+    starts: Vec<(usize, &'static str)>,
+}
+
+/// A place in one of the files a shader is composed of (1-based line and column).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SourceLocation {
+    /// `shaders/<part>.wgsl`, or the generated constants.
+    pub path: &'static str,
+    /// Line in that file.
+    pub line: usize,
+    /// Column, in characters.
+    pub column: usize,
+}
+
+impl fmt::Display for SourceLocation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}:{}", self.path, self.line, self.column)
+    }
+}
+
+impl ComposedShader {
+    /// The WGSL.
+    pub fn source(&self) -> &str {
+        &self.source
+    }
+
+    /// The file, line and column of a byte offset into [`source`](Self::source).
+    pub fn locate(&self, offset: usize) -> SourceLocation {
+        let offset = self.char_boundary(offset);
+        let piece = self.starts.partition_point(|&(start, _)| start <= offset) - 1;
+        let (start, path) = self.starts[piece];
+        let before = &self.source[start..offset];
+        let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+        SourceLocation {
+            path,
+            line: before.matches('\n').count() + 1,
+            column: before[line_start..].chars().count() + 1,
+        }
+    }
+
+    /// A diagnostic naming the parts' files and lines: `error: message`, then each labelled
+    /// span (byte ranges of [`source`](Self::source)) as `--> path:line:column`, the line it
+    /// is on and a marker under it.
+    pub fn diagnostic(&self, message: &str, labels: &[(Range<usize>, &str)]) -> String {
+        let mut out = format!("error: {message}");
+        for (span, label) in labels {
+            let at = self.locate(span.start);
+            let start = self.char_boundary(span.start);
+            let line_start = self.source[..start].rfind('\n').map_or(0, |i| i + 1);
+            let line_end = self.source[start..]
+                .find('\n')
+                .map_or(self.source.len(), |i| start + i);
+            let line = &self.source[line_start..line_end];
+            let width = self.source[start..self.char_boundary(span.end.clamp(start, line_end))]
+                .chars()
+                .count()
+                .max(1);
+            let gutter = " ".repeat(at.line.to_string().len());
+            out.push_str(&format!(
+                "\n{gutter}--> {at}\n{gutter} |\n{} | {line}\n{gutter} | {}{} {label}",
+                at.line,
+                " ".repeat(at.column - 1),
+                "^".repeat(width),
+            ));
+        }
+        out.trim_end().to_string()
+    }
+
+    /// The largest char boundary at or before `offset`, within the source.
+    fn char_boundary(&self, offset: usize) -> usize {
+        let mut offset = offset.min(self.source.len());
+        while !self.source.is_char_boundary(offset) {
+            offset -= 1;
+        }
+        offset
+    }
+}
+
+/// The WGSL of the shadow pass, composed.
 pub fn shadow_shader_source() -> String {
-    compose(SHADOW)
+    SHADOW.compose().source
 }
 
-/// The WGSL of the subsurface pyramid's reduction (`shaders/subsurface_reduce.wgsl`), composed.
+/// The WGSL of the subsurface pyramid's reduction, composed.
 pub fn subsurface_reduce_shader_source() -> String {
-    compose(SUBSURFACE_REDUCE)
+    SUBSURFACE_REDUCE.compose().source
 }
 
-fn compose(shader: &str) -> String {
-    format!("{}\n{COMMON}\n{shader}", wgsl_constants())
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_composed_offset_is_located_in_its_part() {
+        let composed = compose(&[part::MATHS, part::OVERRIDES]);
+        let source = composed.source();
+        let offset = source.find("override SHADOWS").unwrap();
+        let expected_line = 1 + part::OVERRIDES.source
+            [..part::OVERRIDES.source.find("override SHADOWS").unwrap()]
+            .matches('\n')
+            .count();
+        assert_eq!(
+            composed.locate(offset),
+            SourceLocation {
+                path: "shaders/overrides.wgsl",
+                line: expected_line,
+                column: 1
+            }
+        );
+        let offset = source.find("const PI").unwrap() + "const ".len();
+        let at = composed.locate(offset);
+        assert_eq!((at.path, at.column), ("shaders/maths.wgsl", 7));
+        assert_eq!(composed.locate(0).path, GENERATED);
+    }
+
+    /// A module that fails to compile on a device reports the part's file and line.
+    #[test]
+    fn a_device_s_shader_error_names_the_part_s_line() {
+        use crate::headless::{AdapterPreference, HeadlessDevice};
+        let host = HeadlessDevice::new(AdapterPreference::Software).expect("a software device");
+        let broken = Shader {
+            label: "cdrf broken",
+            parts: &[
+                part::COMMON,
+                Part {
+                    path: "shaders/broken.wgsl",
+                    source: "// A missing semicolon.\nfn f() -> f32 {\n    return 1.0\n}\n",
+                },
+            ],
+        };
+        let (_, result) = broken.create_module(&host.device);
+        let message = result.expect_err("the module fails");
+        println!("{message}");
+        assert!(message.contains("--> shaders/broken.wgsl:4:1"), "{message}");
+        assert!(host.take_uncaptured_errors().is_empty());
+        let (_, result) = SHADING.create_module(&host.device);
+        assert_eq!(result, Ok(()));
+    }
+
+    #[test]
+    fn naga_s_headline_and_notes_are_kept() {
+        let report = "\nShader 'x' parsing error: expected ';'\n   ┌─ wgsl:3:4\n   │\n 3 │ a\n   \
+                      = note: one\n";
+        assert_eq!(naga_message(report), "expected ';'\n  = note: one");
+    }
 }

@@ -1,12 +1,13 @@
-// cdrf shadow pass: the first surface each light meets, as depth in a light-space map (one array
+// The shadow pass: the first surface each light meets, as depth in a light-space map (one array
 // layer per face: one per directional light, orthographic; one or six per point or spot light,
 // perspective). Orthographic maps store the clip depth (z over the depth range) with no
 // fragment stage; perspective maps store the distance from the light over the depth range
-// (fs_shadow_distance), so every map's depth is linear along the light's rays.
+// (fs_shadow_distance), so every map's depth is linear along the light's rays. See
+// docs/shading.md.
 //
 // Bind groups (owned by cdrf-render's Renderer):
 //   0: the face's clip-from-world transform (dynamic offset: one per face)
-//   1: draw model transform (dynamic offset; the same buffer and layout as cdrf.wgsl's group 2)
+//   1: draw model transform (dynamic offset; the same buffer as the shading pass's `draw`)
 
 struct ShadowPass {
     clip_from_world: mat4x4<f32>,

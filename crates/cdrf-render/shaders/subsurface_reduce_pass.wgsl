@@ -1,6 +1,7 @@
-// The subsurface pyramid's reduction (see the subsurface gather in cdrf.wgsl): each texel of a
+// The subsurface pyramid's reduction (docs/shading.md, "Subsurface gather"): each texel of a
 // level is the sum of the 2 × 2 texels below it, Φ·position and Φ alike, so a coarse texel
 // holds the light entering the surface it covers and (divided by Φ) where it enters on average.
+// Bind group 0: the finer level.
 
 @group(0) @binding(0) var finer: texture_2d<f32>;
 

@@ -1,0 +1,162 @@
+// The subsurface gather G: light that entered the lit surface near a point and reached it
+// through the medium, summed over the subsurface pyramids with the far-field kernel R_far(d)
+// (docs/shading.md, "Subsurface gather").
+
+// Whether this material's subsurface gather is on (a diffusion profile, and the pipeline's).
+fn gathers_subsurface() -> bool {
+    return SUBSURFACE && material.subsurface_reach_mm > 0.0 && MODEL != MODEL_LAMBERT;
+}
+
+// R_far(d) per channel, mm⁻² (0 beyond the table's reach).
+fn subsurface_kernel_value(distance_mm: f32) -> vec3<f32> {
+    let reach = material.subsurface_reach_mm;
+    if distance_mm >= reach {
+        return vec3<f32>(0.0);
+    }
+    let last = f32(SUBSURFACE_KERNEL_SAMPLES - 1u);
+    let x = sqrt(max(distance_mm, 0.0) / reach) * last;
+    let i = min(u32(x), SUBSURFACE_KERNEL_SAMPLES - 2u);
+    let a = material.subsurface_kernel[i].xyz;
+    let b = material.subsurface_kernel[i + 1u].xyz;
+    return mix(a, b, clamp(x - f32(i), 0.0, 1.0));
+}
+
+// The share of the light level L keeps, at ρ of its texels from the point: 1 within
+// SUBSURFACE_LEVEL_REACH texels, 0 beyond twice that, smooth between.
+const SUBSURFACE_LEVEL_REACH: f32 = 3.0;
+fn level_share(rho: f32) -> f32 {
+    return 1.0 - smoothstep(SUBSURFACE_LEVEL_REACH, 2.0 * SUBSURFACE_LEVEL_REACH, rho);
+}
+
+// G at frame point p (mm) from the pyramids of light `index` (one per face), per unit of the
+// light's strength (light_strength).
+fn subsurface_gather(index: u32, shape: LocalShape) -> vec3<f32> {
+    let p = shape.point;
+    var sum = vec3<f32>(0.0);
+    if shadows.subsurface_levels == 0u {
+        return sum;
+    }
+    let light = &shadows.lights[index];
+    for (var face = 0u; face < (*light).face_count; face++) {
+        let local = light_face_point(index, face, p);
+        // Behind a perspective face the point is far from all of it: its coarsest level only.
+        let in_front = (*light).projection == SHADOW_ORTHOGRAPHIC || local.z > 0.0;
+        var uv = vec2<f32>(0.0);
+        if in_front {
+            uv = face_uv(index, local);
+        }
+        sum += subsurface_gather_face(index, face, shape, uv, in_front);
+    }
+    return sum;
+}
+
+// One face's pyramid (face `face` of light `index`), the point (its local shape) at map
+// coordinates `uv` (`near`: false when it has none, and all the light counts as far): level L
+// weighs its texel at ρ (its texels) from the point by level_share(ρ) − level_share(2ρ)
+// (level 0: level_share(ρ); the coarsest: 1 − level_share(2ρ)), which sum to 1 at every
+// distance; and each texel by the share of its light that reaches the point through the
+// medium (through_medium).
+fn subsurface_gather_face(
+    index: u32,
+    face: u32,
+    shape: LocalShape,
+    uv: vec2<f32>,
+    near: bool,
+) -> vec3<f32> {
+    let layer = i32(shadows.lights[index].first_layer + face);
+    let p = shape.point;
+    let levels = shadows.subsurface_levels;
+    // The light's projection, read once: per texel, both projections' rays and texel widths
+    // are computed and one selected (software rasterisers run both sides of a branch, and
+    // read a uniform's fields inside the loop per invocation).
+    let orthographic = shadows.lights[index].projection == SHADOW_ORTHOGRAPHIC;
+    let half_extent = shadows.lights[index].half_extent;
+    var sum = vec3<f32>(0.0);
+    for (var level = 0u; level < levels; level++) {
+        let resolution = shadows.subsurface_resolution >> level;
+        let size = i32(resolution);
+        // texel_width_of at this level: this times the depth (perspective) or the frame's
+        // unit (orthographic).
+        let texel_width_per_depth = 2.0 * half_extent / f32(resolution);
+        let centre = uv * f32(size);
+        let coarsest = level + 1u == levels;
+        // The texels whose centres lie within 2·SUBSURFACE_LEVEL_REACH of the point along each
+        // axis (any other has ρ at least that, and share 0): 4·REACH per side.
+        var first = vec2<i32>(floor(centre - 2.0 * SUBSURFACE_LEVEL_REACH - 0.5)) + 1;
+        var count = i32(4.0 * SUBSURFACE_LEVEL_REACH);
+        if coarsest {
+            first = vec2<i32>(0);
+            count = size;
+        } else if !near || any(first + count <= vec2<i32>(0)) || any(first >= vec2<i32>(size)) {
+            // No texel of this level's window lies on the map.
+            continue;
+        }
+        for (var dy = 0; dy < count; dy++) {
+            for (var dx = 0; dx < count; dx++) {
+                let texel = first + vec2<i32>(dx, dy);
+                if any(texel < vec2<i32>(0)) || any(texel >= vec2<i32>(size)) {
+                    continue;
+                }
+                var share = 1.0;
+                if near {
+                    let rho = length(vec2<f32>(texel) + 0.5 - centre);
+                    if level > 0u {
+                        share -= level_share(2.0 * rho);
+                    }
+                    if !coarsest {
+                        share -= 1.0 - level_share(rho);
+                    }
+                }
+                if share <= 0.0 {
+                    continue;
+                }
+                let texel_sum = textureLoad(subsurface_pyramid, texel, layer, i32(level));
+                if texel_sum.w <= 0.0 {
+                    continue;
+                }
+                // The texel's flux at its mean position.
+                let q = texel_sum.xyz / texel_sum.w;
+                let distance_from_light = length(q);
+                let ray = select(
+                    q / max(distance_from_light, 1e-6),
+                    vec3<f32>(0.0, 0.0, 1.0),
+                    orthographic,
+                );
+                let texel_mm = texel_width_per_depth
+                    * select(distance_from_light, shadows.mm_per_world_unit, orthographic);
+                let tolerance = max(SUBSURFACE_AIR_TOLERANCE_MM, texel_mm);
+                share *= through_medium(ray, shape, q, tolerance);
+                sum += share * texel_sum.w * subsurface_kernel_value(distance(p, q));
+            }
+        }
+    }
+    return sum;
+}
+
+// How much of the light entering at frame point q reaches the point of `shape` through the
+// medium: none where q lies in front of the point's local shape along q's light ray by more
+// than twice `tolerance_mm` — another part, an occluder, whose light crosses the air to get
+// here (the inter-reflection carries that) — all of it where it lies within `tolerance_mm`
+// of the shape's first surface or behind it (the point's own part, whose surface curves
+// inside its osculating sphere), smooth between. The shape's surface the light meets first in
+// q's column: the sphere's near side (none where the ray misses it), or the tangent plane
+// where it faces the light.
+const SUBSURFACE_AIR_TOLERANCE_MM: f32 = 1.0;
+// `ray`: the unit vector along the light's rays at q (light_ray).
+fn through_medium(ray: vec3<f32>, shape: LocalShape, q: vec3<f32>, tolerance_mm: f32) -> f32 {
+    var ahead = -1e30;
+    if shape.curved {
+        let v = q - shape.centre;
+        let b = dot(ray, v);
+        let discriminant = b * b - (dot(v, v) - shape.radius_mm * shape.radius_mm);
+        if discriminant > 0.0 {
+            ahead = -b - sqrt(discriminant);
+        }
+    } else {
+        let facing = dot(ray, shape.normal);
+        if facing < 0.0 {
+            ahead = dot(shape.point - q, shape.normal) / facing;
+        }
+    }
+    return 1.0 - smoothstep(tolerance_mm, 2.0 * tolerance_mm, ahead);
+}

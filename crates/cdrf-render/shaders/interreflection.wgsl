@@ -1,0 +1,68 @@
+// Inter-reflection: a mesh's patches, the frame's emitters, and the light the emitters give a
+// receiving point (docs/shading.md, "Inter-reflection"). Reads `emitters` (group 2 of the
+// inter-reflection pass).
+
+// One patch of a mesh (cdrf-core's patches::SurfacePatch), model units.
+struct Patch {
+    centroid: vec3<f32>,
+    area: f32,
+    normal: vec3<f32>,
+    sagitta: f32,
+    curvature_per_mm: f32,
+    first_member: u32,
+    member_count: u32,
+}
+
+// One vertex of a patch and its share of the patch's area.
+struct PatchMember {
+    vertex: u32,
+    weight: f32,
+}
+
+// One patch of an emitting draw as the frame places it: world position and sizes in mm, unit
+// world normal, the mean curvature (mm⁻¹) it receives light with, its own exitance M (π·L,
+// per unit of irradiance: the light's) and M with the bounces gathered so far.
+struct Emitter {
+    position_mm: vec3<f32>,
+    area_mm2: f32,
+    normal: vec3<f32>,
+    sagitta_mm: f32,
+    direct: vec3<f32>,
+    curvature_per_mm: f32,
+    exitance: vec3<f32>,
+}
+
+// A point receiving the inter-reflection: position (mm), unit normal and mean curvature
+// (mm⁻¹).
+struct Receiver {
+    position_mm: vec3<f32>,
+    normal: vec3<f32>,
+    curvature_per_mm: f32,
+}
+
+// Σ over the frame's emitters but `skip` of the light each gives the receiver (a Lambertian
+// disc each: docs/shading.md), π·L/E times the irradiance facing the emitter: f(κ, θ_ω) · E⊥ (the CDRF's zonal expansion at
+// the receiver's mean curvature: zonal_value).
+fn gathered_light(receiver: Receiver, skip: u32) -> vec3<f32> {
+    let response = zonal_response(receiver.curvature_per_mm);
+    var sum = vec3<f32>(0.0);
+    let count = arrayLength(&emitters);
+    for (var k = 0u; k < count; k++) {
+        // Only the fields the sum needs, each read on its own: software rasterisers read a
+        // storage buffer at a loop's index invocation by invocation.
+        let e = &emitters[k];
+        let from_emitter = receiver.position_mm - (*e).position_mm;
+        let height = dot((*e).normal, from_emitter) - (*e).sagitta_mm;
+        let area_mm2 = (*e).area_mm2;
+        if k == skip || height <= 0.0 || !(area_mm2 > 0.0) {
+            continue;
+        }
+        let d2 = dot(from_emitter, from_emitter);
+        let d = sqrt(d2);
+        // The disc's area seen from the point, A cos θ_e, saturates its 1/d² near it.
+        let seen_mm2 = area_mm2 * height / d;
+        let facing = (*e).exitance * (seen_mm2 / (PI * d2 + seen_mm2));
+        sum += facing * zonal_value(response, -dot(receiver.normal, from_emitter) / d);
+    }
+    return sum;
+}

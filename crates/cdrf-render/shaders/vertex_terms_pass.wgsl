@@ -1,0 +1,112 @@
+// The vertex terms pass (compute): cs_vertex_terms writes every vertex's non-local terms once
+// per frame — the shading pass reads them as a second vertex buffer — and, with the
+// inter-reflection, its exitance. The pass's bind groups: 0–1 and 3 in bindings.wgsl, its
+// group 2 here. See docs/shading.md.
+
+// Group 2: the draw's transforms (dynamic offset), the mesh's vertex buffer as f32s
+// (compute_mesh.wgsl) and the terms written for each of its vertices.
+@group(2) @binding(0) var<uniform> draw: Draw;
+@group(2) @binding(7) var<storage, read> terms_mesh_vertices: array<f32>;
+@group(2) @binding(8) var<storage, read_write> terms_out: array<VertexTerms>;
+
+@compute @workgroup_size(64)
+fn cs_vertex_terms(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let i = invocation_index(id, groups);
+    if i >= arrayLength(&terms_out) {
+        return;
+    }
+    let v = mesh_vertex(i);
+    // The shadow test's local shape keeps the mean curvature, not the curvature along the
+    // light: a saddle would switch between sphere and tangent plane from vertex to vertex.
+    var lights: array<NonLocalTerms, MAX_SHADOW_LIGHTS>;
+    for (var k = 0u; k < MAX_SHADOW_LIGHTS; k++) {
+        lights[k] = no_terms();
+    }
+    let count = min(shadows.light_count, frame.light_count);
+    let curvatures = light_curvatures_per_mm(
+        v.world_position,
+        v.normal,
+        v.curvature_per_mm,
+        v.anisotropy,
+    );
+    if LIGHT_MAPS && MODEL != MODEL_CURVATURE {
+        for (var k = 0u; k < count; k++) {
+            if MODEL == MODEL_LAMBERT {
+                // Lambert's terms are the shading pass's, per pixel; the exitance needs them here.
+                if INTERREFLECTION && SHADOWS {
+                    lights[k] = non_local_terms(k, v.world_position, v.normal, v.curvature_per_mm);
+                }
+            } else {
+                lights[k] = vertex_non_local(
+                    k,
+                    v.world_position,
+                    v.normal,
+                    v.curvature_per_mm,
+                    curvatures[k],
+                );
+            }
+        }
+    }
+    var terms: VertexTerms;
+    for (var k = 0u; k < MAX_SHADOW_LIGHTS; k++) {
+        terms.lights[k].visibility = vec4<f32>(lights[k].visibility, 1.0);
+        terms.lights[k].through = vec4<f32>(pack_through(lights[k]), 0.0);
+    }
+    if INTERREFLECTION && MODEL != MODEL_CURVATURE {
+        // The light leaving the vertex, as if evenly (the inter-reflection's source).
+        var exitance = vec3<f32>(0.0);
+        for (var k = 0u; k < min(frame.light_count, MAX_LIGHTS); k++) {
+            let incidence = light_incidence(frame.lights[k], v.world_position);
+            let cos_theta = dot(v.normal, incidence.to_light);
+            var curvature_per_mm = v.curvature_per_mm;
+            var light_terms = no_terms();
+            if k < MAX_SHADOW_LIGHTS {
+                curvature_per_mm = curvatures[k];
+                light_terms = lights[k];
+            }
+            exitance += light_share(
+                k,
+                incidence,
+                cos_theta,
+                angle(cos_theta),
+                curvature_per_mm,
+                light_terms,
+            ).reflected;
+        }
+        terms.exitance = vec4<f32>(exitance, 0.0);
+    }
+    terms_out[i] = terms;
+}
+
+// The per-vertex terms of shadowed light `index`: visibility and T(d, μ) from the shadow map,
+// or with the subsurface gather G (scaled on the shadow side by s(κ, θ)) instead of T.
+fn vertex_non_local(
+    index: u32,
+    world_position: vec3<f32>,
+    normal: vec3<f32>,
+    curvature_per_mm: f32,
+    light_curvature_per_mm: f32,
+) -> NonLocalTerms {
+    var terms = no_terms();
+    if SHADOWS || TRANSMISSION {
+        terms = non_local_terms(index, world_position, normal, curvature_per_mm);
+    }
+    if gathers_subsurface() {
+        let shape = local_shape(
+            light_frame_point(index, world_position),
+            light_frame_vector(index, normal),
+            curvature_per_mm,
+        );
+        terms.gather = subsurface_gather(index, shape);
+        let v = terms.visibility;
+        if SHADOWS && any(v < vec3<f32>(1.0)) {
+            let to_light = light_incidence(frame.lights[index], world_position).to_light;
+            let gain = subsurface_gain_value(light_curvature_per_mm, angle(dot(normal, to_light)));
+            terms.gather *= v + (vec3<f32>(1.0) - v) * gain;
+        }
+    }
+    return terms;
+}

@@ -1,0 +1,1 @@
+../crates/cdrf-render/shaders/light_space.wgsl

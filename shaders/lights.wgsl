@@ -1,0 +1,1 @@
+../crates/cdrf-render/shaders/lights.wgsl

@@ -1,1 +1,0 @@
-../crates/cdrf-render/shaders/shadow.wgsl

@@ -1,0 +1,1 @@
+../crates/cdrf-render/shaders/subsurface_reduce_pass.wgsl

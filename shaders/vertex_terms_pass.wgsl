@@ -1,0 +1,1 @@
+../crates/cdrf-render/shaders/vertex_terms_pass.wgsl
