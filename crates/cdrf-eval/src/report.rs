@@ -143,7 +143,7 @@ pub fn results_page(results: &[CaseResult], figures: &str, provenance: &Provenan
         provenance.command, provenance.adapter, provenance.fit
     ));
     text.push_str(&format!(
-        "**How it compares** (`cdrf_viewer::compare`; the metric is `cdrf_core::block_error`, \
+        "**How it compares** (`cdrf_eval`; the metric is `cdrf_core::block_error`, \
          the one cdrf-fit and the render tests use too):\n\
          - *Pixels*: those the render covers fully (4× MSAA coverage = 1) with all neighbours \
          within {ERODE_PX} px covered too.\n\
