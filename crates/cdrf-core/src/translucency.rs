@@ -5,7 +5,7 @@
 //! shadow-side point has crossed the chord `2·cos(θ − π)/κ` of material ([`local_chord_mm`]); the
 //! measured table already holds that glow. A renderer with a shadow map knows the real distance
 //! `d` light travels from the first surface it meets to the point, and corrects the CDRF where
-//! the object differs from the osculating sphere (see `crates/cdrf-render/shaders/cdrf.wgsl`):
+//! the object differs from the osculating sphere (see `docs/shading.md`):
 //! - **translucent visibility**: where an occluder lies nearer the light than the osculating
 //!   sphere explains (a cast shadow), the CDRF term is attenuated. The edge is not sharp: light
 //!   diffuses under it, so the test is averaged over a Gaussian footprint whose width is the

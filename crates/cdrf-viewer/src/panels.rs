@@ -372,7 +372,7 @@ fn difference_legend(painter: &egui::Painter, rect: Rect, range: f32) {
     );
 }
 
-/// The curvature view's colours, as the shader draws them (`crates/cdrf-render/shaders/cdrf.wgsl`,
+/// The curvature view's colours, as the shader draws them (`crates/cdrf-render/shaders/colour.wgsl`,
 /// `cool_warm`: sRGB blue → grey → red, linear in sRGB), at `t` ∈ [0, 1].
 pub fn curvature_colour(t: f32) -> Color32 {
     const COOL: [f32; 3] = [0.230, 0.299, 0.754];
