@@ -617,9 +617,18 @@ fn scene_file_doc_lists_every_key_the_parser_accepts() {
     let mut documented = documented_scene_keys(&text);
     documented.sort();
     documented.dedup();
-    let accepted: Vec<String> = cdrf_core::scene::KEYS.iter().map(|k| k.to_string()).collect();
-    let missing: Vec<&String> = accepted.iter().filter(|k| !documented.contains(k)).collect();
-    let unknown: Vec<&String> = documented.iter().filter(|k| !accepted.contains(k)).collect();
+    let accepted: Vec<String> = cdrf_core::scene::KEYS
+        .iter()
+        .map(|k| k.to_string())
+        .collect();
+    let missing: Vec<&String> = accepted
+        .iter()
+        .filter(|k| !documented.contains(k))
+        .collect();
+    let unknown: Vec<&String> = documented
+        .iter()
+        .filter(|k| !accepted.contains(k))
+        .collect();
     println!("docs/scene-file.md documents {} keys", documented.len());
     assert!(
         missing.is_empty() && unknown.is_empty(),

@@ -1417,10 +1417,7 @@ outer_angle_deg = 30.0"#,
     fn exposure_defaults_to_one_and_is_checked() {
         assert_eq!(parse(EXAMPLE).unwrap().camera.exposure, 1.0);
         let with = |value: &str| {
-            parse(&EXAMPLE.replace(
-                "height = 512",
-                &format!("height = 512\nexposure = {value}"),
-            ))
+            parse(&EXAMPLE.replace("height = 512", &format!("height = 512\nexposure = {value}")))
         };
         assert_eq!(with("2.5").unwrap().camera.exposure, 2.5);
         for bad in ["0.0", "-1.0", "nan", "inf", "1e7"] {
