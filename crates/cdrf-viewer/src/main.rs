@@ -527,8 +527,7 @@ fn window(cli: &Cli) -> anyhow::Result<()> {
     }
 }
 
-fn run() -> anyhow::Result<()> {
-    let cli = Cli::parse();
+fn run(cli: Cli) -> anyhow::Result<()> {
     let top_level = [
         ("--scene", cli.start.scene.is_some()),
         ("--fit", cli.start.fit.is_some()),
@@ -601,10 +600,12 @@ unsafe fn private_runtime_dir() -> Option<tempfile::TempDir> {
 }
 
 fn main() -> ExitCode {
-    // SAFETY: main's first statement: no other thread exists yet.
+    // First, as clap exits the process on --help or a usage error (no folder to leave behind).
+    let cli = Cli::parse();
+    // SAFETY: no other thread exists yet: parsing the command line starts none.
     #[allow(unsafe_code)]
     let _runtime_dir = unsafe { private_runtime_dir() };
-    match run() {
+    match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("error: {error:#}");
