@@ -1,7 +1,9 @@
 //! README.md and docs/*.md say only what exists: every command names a real package, binary,
 //! example, bench, test or script, every flag it passes is one that binary's `--help` lists,
 //! every `data/` path in it exists, and every relative link (with its `#anchor`) points at a
-//! file (and heading) that exists.
+//! file (and heading) that exists — in ARCHITECTURE.md and docs/research/*.md too. And
+//! docs/scene-file.md documents exactly the keys the scene parser accepts, and its example
+//! loads.
 //!
 //! The binaries' help comes from the built executables next to this test's (`target/debug/`):
 //! `cargo test --workspace` builds them first (cdrf-fit and cdrf-viewer have integration
@@ -27,16 +29,29 @@ fn root() -> PathBuf {
     root.canonicalize().unwrap_or(root)
 }
 
-/// README.md and every Markdown file in docs/.
-fn documents() -> Vec<PathBuf> {
-    let mut docs = vec![root().join("README.md")];
-    let mut more: Vec<PathBuf> = fs::read_dir(root().join("docs"))
-        .expect("docs/ exists")
+/// The Markdown files in `dir`, sorted.
+fn markdown_in(dir: &Path) -> Vec<PathBuf> {
+    let mut found: Vec<PathBuf> = fs::read_dir(dir)
+        .unwrap_or_else(|error| panic!("{}: {error}", dir.display()))
         .map(|entry| entry.unwrap().path())
         .filter(|path| path.extension().is_some_and(|ext| ext == "md"))
         .collect();
-    more.sort();
-    docs.extend(more);
+    found.sort();
+    found
+}
+
+/// README.md and every Markdown file in docs/: the user's documents, whose commands are checked.
+fn documents() -> Vec<PathBuf> {
+    let mut docs = vec![root().join("README.md")];
+    docs.extend(markdown_in(&root().join("docs")));
+    docs
+}
+
+/// The user's documents, ARCHITECTURE.md and the research notes: whose links are checked.
+fn linked_documents() -> Vec<PathBuf> {
+    let mut docs = documents();
+    docs.push(root().join("ARCHITECTURE.md"));
+    docs.extend(markdown_in(&root().join("docs/research")));
     docs
 }
 
@@ -519,7 +534,7 @@ fn anchors(markdown: &str) -> Vec<String> {
 fn every_relative_link_points_at_an_existing_file_and_heading() {
     let mut problems = Vec::new();
     let mut checked = 0;
-    for doc in documents() {
+    for doc in linked_documents() {
         let text = fs::read_to_string(&doc).unwrap();
         let name = doc.strip_prefix(root()).unwrap().display().to_string();
         for (at, _) in text.match_indices("](") {
@@ -550,7 +565,7 @@ fn every_relative_link_points_at_an_existing_file_and_heading() {
             }
         }
     }
-    println!("checked {checked} relative links in README.md and docs/*.md");
+    println!("checked {checked} relative links in README.md, ARCHITECTURE.md and docs/");
     assert!(
         checked >= 10,
         "found only {checked} links: is the extraction broken?"
@@ -561,4 +576,83 @@ fn every_relative_link_points_at_an_existing_file_and_heading() {
         problems.len(),
         problems.join("\n")
     );
+}
+
+/// The keys docs/scene-file.md documents, as `[table] key`: the first cell's `code` spans of
+/// each table row, under a heading that names the table (`` ## `[mesh]` ``).
+fn documented_scene_keys(markdown: &str) -> Vec<String> {
+    let mut table = None;
+    let mut keys = Vec::new();
+    let mut in_fence = false;
+    for line in markdown.lines() {
+        if line.trim_start().starts_with("```") {
+            in_fence = !in_fence;
+        }
+        if in_fence {
+            continue;
+        }
+        if let Some(heading) = line.strip_prefix("## ") {
+            table = heading
+                .trim()
+                .strip_prefix('`')
+                .and_then(|h| h.strip_suffix('`'))
+                .filter(|h| h.starts_with('['))
+                .map(str::to_owned);
+        } else if let (Some(table), Some(row)) = (&table, line.strip_prefix('|')) {
+            let first = row.split('|').next().unwrap_or("");
+            for (n, span) in first.split('`').enumerate() {
+                if n % 2 == 1 {
+                    keys.push(format!("{table} {span}"));
+                }
+            }
+        }
+    }
+    keys
+}
+
+#[test]
+fn scene_file_doc_lists_every_key_the_parser_accepts() {
+    let path = root().join("docs/scene-file.md");
+    let text = fs::read_to_string(&path).unwrap();
+    let mut documented = documented_scene_keys(&text);
+    documented.sort();
+    documented.dedup();
+    let accepted: Vec<String> = cdrf_core::scene::KEYS
+        .iter()
+        .map(|k| k.to_string())
+        .collect();
+    let missing: Vec<&String> = accepted
+        .iter()
+        .filter(|k| !documented.contains(k))
+        .collect();
+    let unknown: Vec<&String> = documented
+        .iter()
+        .filter(|k| !accepted.contains(k))
+        .collect();
+    println!("docs/scene-file.md documents {} keys", documented.len());
+    assert!(
+        missing.is_empty() && unknown.is_empty(),
+        "docs/scene-file.md: keys the parser accepts but the document lacks: {missing:?}; \
+         keys it documents that the parser does not accept: {unknown:?}"
+    );
+}
+
+#[test]
+fn scene_file_doc_example_loads() {
+    let path = root().join("docs/scene-file.md");
+    let text = fs::read_to_string(&path).unwrap();
+    let example = text
+        .split("```toml\n")
+        .nth(1)
+        .and_then(|rest| rest.split("```").next())
+        .expect("docs/scene-file.md has a ```toml example");
+    // As if saved in data/scenes/, as the document says.
+    let scenes = root().join("data/scenes");
+    let scene = cdrf_core::Scene::from_toml_str(example, &scenes, &path)
+        .unwrap_or_else(|error| panic!("the example does not parse: {error}"));
+    scene
+        .load_assets()
+        .unwrap_or_else(|error| panic!("the example's files do not load: {error}"));
+    assert!(scene.non_local.subsurface && scene.specular.is_some());
+    assert!(scene.environment.is_some());
 }

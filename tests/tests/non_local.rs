@@ -72,6 +72,7 @@ fn scene_lit(half_height_mm: f32, light: Light, non_local: NonLocal) -> Scene {
             width: SIZE,
             height: SIZE,
             msaa_samples: 4,
+            exposure: 1.0,
         },
         lights: vec![light],
         shading: ShadingSpec::Measured {

@@ -850,14 +850,13 @@ pub enum EnvironmentError {
     /// The map file could not be read (missing, not an RGB OpenEXR, empty, too large); the
     /// message names the file.
     #[error("environment map {0}")]
-    Image(#[from] ImageFileError),
+    Image(ImageFileError),
     /// The map file holds unusable data.
     #[error("environment map {}: {error}", path.display())]
     Map {
         /// The file.
         path: PathBuf,
         /// What is wrong with it.
-        #[source]
         error: MapError,
     },
     /// A parameter is out of range.
@@ -868,6 +867,13 @@ pub enum EnvironmentError {
         /// Its value.
         value: f32,
     },
+}
+
+// The message holds the cause's, which `source()` therefore does not repeat.
+impl From<ImageFileError> for EnvironmentError {
+    fn from(error: ImageFileError) -> Self {
+        Self::Image(error)
+    }
 }
 
 #[cfg(test)]

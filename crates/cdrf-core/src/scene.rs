@@ -1,65 +1,35 @@
 //! The scene file: one mesh, an orthographic or perspective camera, lights (directional, point,
-//! spot) and a shading model, in TOML. Headless rendering, the tests and the accuracy evaluation read it.
+//! spot), a shading model and optionally an environment light, in TOML. Headless rendering, the
+//! tests and the accuracy evaluation read it.
+//!
+//! Every key, with its unit and default, is in `docs/scene-file.md`; [`KEYS`] lists them (a
+//! test holds that list against this parser and the document). A minimal scene:
 //!
 //! ```toml
 //! [mesh]
 //! path = "bunny.obj"            # OBJ or glTF/GLB, relative to this file
-//! mm_per_unit = 10.0            # millimetres per mesh (= world) unit; default 1
-//! scale = 1.0                   # optional model transform: uniform scale (default 1)
-//! rotate_deg = [0.0, 0.0, 0.0]  # optional: about x, then y, then z, degrees
-//! translate = [0.0, 0.0, 0.0]   # optional: world units, applied last
-//! curvature_smoothing = 0       # optional: rounds of curvature smoothing (default 0, at most 1000)
+//! mm_per_unit = 10.0            # millimetres per mesh (= world) unit
 //!
-//! [camera]
-//! projection = "orthographic"   # or "perspective" (then vertical_fov_deg)
+//! [camera]                      # orthographic: ortho_half_height; perspective: vertical_fov_deg
 //! eye = [0.0, 0.0, 250.0]
 //! target = [0.0, 0.0, 0.0]
 //! up = [0.0, 1.0, 0.0]
-//! ortho_half_height = 50.0      # world units, orthographic only
-//! # vertical_fov_deg = 30.0     # perspective only
+//! ortho_half_height = 50.0      # world units
 //! width = 512
 //! height = 512
-//! msaa_samples = 4              # optional: 1 or 4 (default 4); alpha = pixel coverage
 //!
-//! [[light]]                     # one or more (at most 16 are drawn)
-//! type = "directional"          # optional: "directional" (default) | "point" | "spot"
-//! to_light = [-1.0, 0.0, 0.0]   # directional: world space, toward the light (normalised)
-//! irradiance = [1.0, 1.0, 1.0]  # directional: linear, per RGB channel, on a surface facing it
-//!
-//! [[light]]
-//! type = "spot"
-//! position = [-100.0, 40.0, 80.0]   # point, spot: world units
-//! intensity = [17700.0, 17700.0, 17700.0]  # point, spot: irradiance facing the light at d mm
-//!                                   # = intensity / d²
-//! direction = [1.0, -0.4, -0.8]     # spot: the way it shines (normalised)
-//! inner_angle_deg = 20.0            # spot: full intensity within this angle of the axis …
-//! outer_angle_deg = 30.0            # … none beyond this one (0 ≤ inner < outer ≤ 90)
+//! [[light]]                     # directional by default
+//! to_light = [-1.0, 0.0, 0.0]   # toward the light, world space
+//! irradiance = [1.0, 1.0, 1.0]  # linear RGB, on a surface facing it
 //!
 //! [shading]
 //! model = "measured"            # measured | gaussian | lambert | curvature
-//! lut = "out/measured.exr"      # model = "measured": a LUT file (cdrf-fit's measured.exr)
-//! # gaussian = "out/gaussian.toml"        # model = "gaussian": cdrf-fit's fitted parameters
-//! # albedo = [0.8, 0.8, 0.8]              # model = "lambert" (default 1)
-//! # curvature_range_per_mm = [-0.1, 0.1]  # model = "curvature" (default ±max |κ| of the mesh)
-//! shadows = false               # optional: translucent visibility from shadow maps (default false)
-//! transmission = false          # optional: light through thin parts, T(d, μ) (default false)
-//! interreflection = false       # optional: light between parts, bounce after bounce (default false)
-//! subsurface = false            # optional: light that entered the lit surface nearby, by the
-//!                               # LUT's diffusion profile (default false; replaces T(d, μ))
-//! specular = false              # optional: first-surface reflection on top (default false;
-//!                               # not with model = "curvature"), see crate::specular
-//! specular_roughness = 0.3      # optional: its Beckmann α, 0.01…1 (default 0.3)
-//! ior = 1.45                    # optional: its relative index of refraction, (1, 3] (default 1.45)
-//!
-//! [environment]                 # optional: light from every direction, crate::environment
-//! uniform = [0.1, 0.1, 0.1]     # a uniform sky's radiance, linear RGB …
-//! # map = "sky.exr"             # … or an equirectangular linear-radiance OpenEXR (one of the two)
-//! intensity = 1.0               # optional: multiplies it (default 1)
-//! rotate_deg = 0.0              # optional: turns it about world +y (default 0)
+//! lut = "out/measured.exr"      # cdrf-fit's table
 //! ```
 //!
-//! `shadows`, `transmission`, `interreflection` and `subsurface` are the non-local terms ([`NonLocal`], see
-//! [`crate::translucency`]); all off is the poster's local model.
+//! `shadows`, `transmission`, `interreflection` and `subsurface` under `[shading]` are the
+//! non-local terms ([`NonLocal`], see [`crate::translucency`]); all off is the poster's local
+//! model.
 //!
 //! # Units
 //! World units are the mesh's units; one is `mm_per_unit` millimetres. The model transform's
@@ -190,6 +160,8 @@ pub struct Camera {
     pub height: u32,
     /// MSAA samples per pixel (1 or 4).
     pub msaa_samples: u32,
+    /// Multiplies the rendered radiance (1: physical output), in (0, [`MAX_EXPOSURE`]].
+    pub exposure: f32,
 }
 
 impl Camera {
@@ -372,6 +344,18 @@ pub enum SceneError {
         /// The LUT reader's error (names the LUT file).
         error: LutFileError,
     },
+    /// `[shading] subsurface = true` with a table that has no diffusion profile (a preset, or
+    /// a LUT file before format version 4).
+    #[error(
+        "[shading] subsurface: {} has no diffusion profile, which the subsurface gather needs \
+         (a preset, or a table from before LUT format 4): use a table cdrf-fit wrote, or turn \
+         subsurface off",
+        lut.display()
+    )]
+    NoDiffusionProfile {
+        /// The LUT file.
+        lut: PathBuf,
+    },
     /// The Gaussian parameters could not be read.
     #[error("[shading] gaussian: {error}")]
     Gaussian {
@@ -438,7 +422,7 @@ struct RawMesh {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawCamera {
-    projection: String,
+    projection: Option<String>,
     #[serde(deserialize_with = "eye")]
     eye: [f32; 3],
     #[serde(deserialize_with = "target")]
@@ -451,6 +435,7 @@ struct RawCamera {
     height: u32,
     #[serde(default = "four")]
     msaa_samples: u32,
+    exposure: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -523,6 +508,55 @@ fn four() -> u32 {
 /// Largest image side accepted.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
+/// The largest `[camera] exposure`: beyond it every lit pixel saturates, which is a mistake, not
+/// a setting.
+pub const MAX_EXPOSURE: f32 = 1.0e6;
+
+/// Every key the parser accepts, as `[table] key` (`[[light]]` for the light tables); a test
+/// holds it against the parser, and `docs/scene-file.md` documents each one.
+pub const KEYS: &[&str] = &[
+    "[mesh] path",
+    "[mesh] mm_per_unit",
+    "[mesh] scale",
+    "[mesh] rotate_deg",
+    "[mesh] translate",
+    "[mesh] curvature_smoothing",
+    "[camera] projection",
+    "[camera] eye",
+    "[camera] target",
+    "[camera] up",
+    "[camera] ortho_half_height",
+    "[camera] vertical_fov_deg",
+    "[camera] width",
+    "[camera] height",
+    "[camera] msaa_samples",
+    "[camera] exposure",
+    "[[light]] type",
+    "[[light]] to_light",
+    "[[light]] irradiance",
+    "[[light]] position",
+    "[[light]] intensity",
+    "[[light]] direction",
+    "[[light]] inner_angle_deg",
+    "[[light]] outer_angle_deg",
+    "[shading] model",
+    "[shading] lut",
+    "[shading] gaussian",
+    "[shading] albedo",
+    "[shading] curvature_range_per_mm",
+    "[shading] shadows",
+    "[shading] transmission",
+    "[shading] interreflection",
+    "[shading] subsurface",
+    "[shading] specular",
+    "[shading] specular_roughness",
+    "[shading] ior",
+    "[environment] uniform",
+    "[environment] map",
+    "[environment] intensity",
+    "[environment] rotate_deg",
+];
+
 impl Scene {
     /// Reads and validates a scene file; relative paths resolve against its folder.
     ///
@@ -594,7 +628,33 @@ impl Scene {
         };
 
         let c = raw.camera;
-        let projection = match c.projection.as_str() {
+        // Without `projection`, the one projection key given says which.
+        let projection_name = match (
+            c.projection.as_deref(),
+            c.ortho_half_height,
+            c.vertical_fov_deg,
+        ) {
+            (Some(name), _, _) => name,
+            (None, Some(_), None) => "orthographic",
+            (None, None, Some(_)) => "perspective",
+            (None, Some(_), Some(_)) => {
+                return Err(invalid(
+                    "[camera] projection",
+                    "not given, and both ortho_half_height and vertical_fov_deg are: give \
+                     projection = \"orthographic\" or \"perspective\", or only one of them"
+                        .into(),
+                ));
+            }
+            (None, None, None) => {
+                return Err(invalid(
+                    "[camera] projection",
+                    "not given: give ortho_half_height (orthographic) or vertical_fov_deg \
+                     (perspective)"
+                        .into(),
+                ));
+            }
+        };
+        let projection = match projection_name {
             "orthographic" => {
                 if c.vertical_fov_deg.is_some() {
                     return Err(invalid(
@@ -679,6 +739,13 @@ impl Scene {
                 format!("{}: must be 1 or 4", c.msaa_samples),
             ));
         }
+        let exposure = c.exposure.unwrap_or(1.0);
+        if !(exposure > 0.0 && exposure <= MAX_EXPOSURE) {
+            return Err(invalid(
+                "[camera] exposure",
+                format!("{exposure}: must be > 0 and at most {MAX_EXPOSURE}"),
+            ));
+        }
         let camera = Camera {
             projection,
             eye,
@@ -687,6 +754,7 @@ impl Scene {
             width: c.width,
             height: c.height,
             msaa_samples: c.msaa_samples,
+            exposure,
         };
 
         if raw.light.is_empty() {
@@ -890,6 +958,17 @@ impl Scene {
             };
             invalid(key, error.to_string())
         })?;
+        // The gather needs a table's diffusion profile; a table without one is refused when it
+        // is loaded (`Scene::load_assets`).
+        if s.subsurface && !matches!(shading, ShadingSpec::Measured { .. }) {
+            return Err(invalid(
+                "[shading] subsurface",
+                format!(
+                    "needs a measured table with a diffusion profile; model = \"{}\" has none",
+                    s.model
+                ),
+            ));
+        }
         if s.specular && matches!(shading, ShadingSpec::Curvature { .. }) {
             return Err(invalid(
                 "[shading] specular",
@@ -986,8 +1065,12 @@ impl Scene {
         })?;
         let curvature_per_mm = curvature.mean_per_mm;
         let material = match &self.shading {
-            ShadingSpec::Measured { lut } => {
-                Material::Measured(read_lut(lut).map_err(|error| SceneError::Lut { error })?)
+            ShadingSpec::Measured { lut: path } => {
+                let lut = read_lut(path).map_err(|error| SceneError::Lut { error })?;
+                if self.non_local.subsurface && lut.diffusion_profile().is_none() {
+                    return Err(SceneError::NoDiffusionProfile { lut: path.clone() });
+                }
+                Material::Measured(lut)
             }
             ShadingSpec::Gaussian { parameters } => {
                 let gaussian_error = |error| SceneError::Gaussian { error };
@@ -1362,6 +1445,136 @@ outer_angle_deg = 30.0"#,
             message.ends_with("\"phong\": must be measured, gaussian, lambert or curvature"),
             "{message}"
         );
+    }
+
+    #[test]
+    fn exposure_defaults_to_one_and_is_checked() {
+        assert_eq!(parse(EXAMPLE).unwrap().camera.exposure, 1.0);
+        let with = |value: &str| {
+            parse(&EXAMPLE.replace("height = 512", &format!("height = 512\nexposure = {value}")))
+        };
+        assert_eq!(with("2.5").unwrap().camera.exposure, 2.5);
+        for bad in ["0.0", "-1.0", "nan", "inf", "1e7"] {
+            let message = with(bad).unwrap_err().to_string();
+            assert!(message.contains("[camera] exposure"), "{bad}: {message}");
+        }
+    }
+
+    #[test]
+    fn projection_is_inferred_from_its_one_key() {
+        let omitted = EXAMPLE.replace("projection = \"orthographic\"\n", "");
+        assert_eq!(
+            parse(&omitted).unwrap().camera.projection,
+            Projection::Orthographic { half_height: 50.0 }
+        );
+        let perspective = omitted.replace("ortho_half_height = 50.0", "vertical_fov_deg = 30.0");
+        assert_eq!(
+            parse(&perspective).unwrap().camera.projection,
+            Projection::Perspective {
+                vertical_fov_deg: 30.0
+            }
+        );
+        for text in [
+            omitted.replace("ortho_half_height = 50.0", ""),
+            omitted.replace(
+                "ortho_half_height = 50.0",
+                "ortho_half_height = 50.0\nvertical_fov_deg = 30.0",
+            ),
+        ] {
+            let message = parse(&text).unwrap_err().to_string();
+            assert!(
+                message.starts_with("/scenes/s.toml: [camera] projection"),
+                "{message}"
+            );
+        }
+    }
+
+    #[test]
+    fn subsurface_needs_a_table_with_a_diffusion_profile() {
+        let lambert = EXAMPLE
+            .replace("model = \"measured\"", "model = \"lambert\"")
+            .replace("lut = \"out/measured.exr\"", "subsurface = true");
+        let message = parse(&lambert).unwrap_err().to_string();
+        assert!(message.contains("[shading] subsurface"), "{message}");
+
+        // A table without a profile (as a preset writes) is refused when it is loaded.
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("bunny.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        )
+        .unwrap();
+        std::fs::create_dir(dir.path().join("out")).unwrap();
+        let lut = CdrfLut::tabulate(
+            &crate::lut::Lambert { albedo: [0.8; 3] },
+            crate::lut::CurvatureAxis::from_radii_mm(50.0, 15.0, 2),
+            19,
+        )
+        .unwrap();
+        crate::lut_file::write_lut(&lut, dir.path().join("out/measured.exr")).unwrap();
+        let scene_path = dir.path().join("s.toml");
+        let text = EXAMPLE.replace(
+            "lut = \"out/measured.exr\"",
+            "lut = \"out/measured.exr\"\nsubsurface = true",
+        );
+        std::fs::write(&scene_path, &text).unwrap();
+        let message = Scene::load(&scene_path)
+            .unwrap()
+            .load_assets()
+            .unwrap_err()
+            .to_string();
+        assert!(message.starts_with("[shading] subsurface: "), "{message}");
+        assert!(message.contains("measured.exr"), "{message}");
+        // Without the gather the same table loads.
+        std::fs::write(&scene_path, EXAMPLE).unwrap();
+        Scene::load(&scene_path).unwrap().load_assets().unwrap();
+    }
+
+    /// [`KEYS`] is what the parser accepts: serde's "unknown field" error lists each table's
+    /// fields.
+    #[test]
+    fn keys_are_the_parser_s_fields() {
+        fn fields(text: &str) -> Vec<String> {
+            let message = parse(text).unwrap_err().to_string();
+            let listed = message
+                .split_once("expected ")
+                .unwrap_or_else(|| panic!("{message}"))
+                .1;
+            let listed = listed.strip_prefix("one of ").unwrap_or(listed);
+            listed
+                .lines()
+                .next()
+                .unwrap()
+                .split(", ")
+                .map(|field| field.trim().trim_matches('`').to_owned())
+                .collect()
+        }
+        let mut parsed = Vec::new();
+        for (table, anchor) in [
+            ("[mesh]", "path = \"bunny.obj\""),
+            ("[camera]", "width = 512"),
+            ("[[light]]", "to_light = [-2.0, 0.0, 0.0]"),
+            ("[shading]", "model = \"measured\""),
+        ] {
+            let text = EXAMPLE.replacen(anchor, &format!("{anchor}\nbogus_key = 1"), 1);
+            parsed.extend(fields(&text).into_iter().map(|f| format!("{table} {f}")));
+        }
+        let environment = format!("{EXAMPLE}\n[environment]\nbogus_key = 1");
+        parsed.extend(
+            fields(&environment)
+                .into_iter()
+                .map(|f| format!("[environment] {f}")),
+        );
+        let top = format!("bogus_key = 1\n{EXAMPLE}");
+        assert_eq!(
+            fields(&top),
+            ["mesh", "camera", "light", "shading", "environment"],
+            "a new table: add its keys to KEYS"
+        );
+        let mut keys: Vec<String> = KEYS.iter().map(|k| k.to_string()).collect();
+        keys.sort();
+        parsed.sort();
+        assert_eq!(keys, parsed);
     }
 
     /// The data set's pixel mapping: pixel (i, j)'s centre projects to that pixel's NDC centre.

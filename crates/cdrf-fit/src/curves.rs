@@ -6,19 +6,16 @@
 //! We fit, jointly over all spheres k:
 //! - `f_k(θ)`: one curve per sphere, piecewise linear on the table's θ nodes (0.5° by default);
 //! - `g(φ)`: one view correction **shared by all radii**, piecewise linear on φ nodes over
-//!   [0, 90°], normalised to `g(0) = 1` — the poster's form. On the bundled wax spheres a g
-//!   fitted to each sphere alone fits no better for r ≥ 25 mm; only the smallest (15 mm) would
-//!   gain about half a percent of residual. One shared g also keeps the table interpolable
-//!   across radii;
+//!   [0, 90°], normalised to `g(0) = 1` — the poster's form, which keeps the table
+//!   interpolable across radii;
 //! - optionally `c_k(θ, φ)`: a smooth multiplicative correction on a coarse bilinear grid (10°),
 //!   **one per sphere**, pulled toward 1 where the data says nothing ([`ViewModel::ThetaPhi`]);
-//!   the table interpolates it across curvature like f (LUT format 5's curvature layers). Shared
-//!   by all radii (as until 2026-12-03), it was a compromise that spheres smaller than 15 mm
-//!   pulled away from the large ones: with r = 5–12.5 mm in the fit the r = 35 mm sphere's error
-//!   rose from 0.73 % to 1.08 %; per sphere every radius is at 0.66–0.71 %. Physically the exitant radiance of a diffusing medium is
-//!   `Φ/4π + 3/(4π)·F·ω`: the net flux F points into the surface on the lit side and along it
-//!   near the terminator, so grazing views are relatively brighter on the lit side and darker on
-//!   the shadow side — no single g(φ) can do both.
+//!   the table interpolates it across curvature like f (LUT format 5's curvature layers). It is
+//!   needed because the exitant radiance of a diffusing medium is `Φ/4π + 3/(4π)·F·ω`: the net
+//!   flux F points into the surface on the lit side and along it near the terminator, so grazing
+//!   views are relatively brighter on the lit side and darker on the shadow side — no single
+//!   g(φ) can do both, and small spheres need another c than large ones. What one shared g and
+//!   one shared c cost on the bundled spheres: `docs/research/fit-notes.md`.
 //!
 //! # Fit
 //! Alternating weighted least squares, **per pixel**: each sample enters with its exact θ and φ

@@ -154,7 +154,14 @@ pub enum DiffusionFitError {
     Settings(String),
     /// The fitted weights do not make a valid profile (not finite).
     #[error("fitted profile: {0}")]
-    Profile(#[from] DiffusionProfileError),
+    Profile(DiffusionProfileError),
+}
+
+// The message holds the cause's, which `source()` therefore does not repeat.
+impl From<DiffusionProfileError> for DiffusionFitError {
+    fn from(error: DiffusionProfileError) -> Self {
+        Self::Profile(error)
+    }
 }
 
 const CHANNELS: [&str; 3] = ["red", "green", "blue"];

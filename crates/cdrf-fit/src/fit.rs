@@ -108,7 +108,14 @@ pub enum FitError {
     Table(#[from] TableError),
     /// The Gaussian fit produced invalid parameters.
     #[error("Gaussian CDRF fit failed: {0}")]
-    Gaussian(#[from] cdrf_core::gaussian::ParameterError),
+    Gaussian(cdrf_core::gaussian::ParameterError),
+}
+
+// The message holds the cause's, which `source()` therefore does not repeat.
+impl From<cdrf_core::gaussian::ParameterError> for FitError {
+    fn from(error: cdrf_core::gaussian::ParameterError) -> Self {
+        Self::Gaussian(error)
+    }
 }
 
 /// What happened to one sphere.

@@ -69,10 +69,8 @@ fn main() -> ExitCode {
     match run(Args::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("error: {error}");
-            for cause in error.chain().skip(1) {
-                eprintln!("  caused by: {cause}");
-            }
+            // The error and its causes, joined with ": ".
+            eprintln!("error: {error:#}");
             ExitCode::FAILURE
         }
     }
@@ -179,8 +177,9 @@ fn run(args: Args) -> anyhow::Result<()> {
                 eprintln!("radius  profile alone: rel. RMS (G)  lit side (G)  shadow side (G)");
                 for sphere in &diffusion.spheres {
                     eprintln!(
-                        "{:>4.0} mm  {:>20.1} %  {:>11.2} x  {:>14.2} x",
-                        sphere.radius_mm,
+                        "{:>4} mm  {:>20.1} %  {:>11.2} x  {:>14.2} x",
+                        // The radius is 1/κ here: rounded to 0.01 mm, 7.5 prints as 7.5.
+                        (sphere.radius_mm * 100.0).round() / 100.0,
                         100.0 * sphere.relative_rms[1],
                         sphere.lit_ratio[1],
                         sphere.shadow_ratio[1],

@@ -21,10 +21,24 @@ pub const VIEW_CURVATURE_LAYERS: usize = 32;
 pub enum TableError {
     /// Two spheres have the same curvature, or a curvature is not finite.
     #[error("cannot interpolate across curvature: {0}")]
-    Spline(#[from] SplineError),
+    Spline(SplineError),
     /// The fitted values do not form a valid table.
     #[error("fitted table is invalid: {0}")]
-    Lut(#[from] LutError),
+    Lut(LutError),
+}
+
+// The message holds the cause's, which `source()` therefore does not repeat.
+impl From<SplineError> for TableError {
+    fn from(error: SplineError) -> Self {
+        Self::Spline(error)
+    }
+}
+
+// The message holds the cause's, which `source()` therefore does not repeat.
+impl From<LutError> for TableError {
+    fn from(error: LutError) -> Self {
+        Self::Lut(error)
+    }
 }
 
 /// Builds the measured table from the fitted curves of spheres with curvatures

@@ -39,11 +39,9 @@
 //! `f / T` of its points: 1 on every sphere when the glow is one function of (d, μ) across
 //! radii.
 //!
-//! On the bundled wax spheres the entry cosine is what makes it one function: without it (T of
-//! d alone, LUT format version 2) the per-sphere ratios fell with the radius from 1.17 at 15 mm
-//! to 0.66 at 50 mm in red (0.35 in green) — at one chord a large sphere's point lies nearer the
-//! terminator, where the light enters at a grazing angle — and the relative RMS was 0.27–0.33;
-//! with it the red ratios stay within 0.90–1.07 and the RMS is 0.18–0.23.
+//! The entry cosine μ is what makes the glow one function across radii: at one chord a large
+//! sphere's point lies nearer the terminator, where the light enters at a grazing angle (the
+//! figures on the bundled spheres: `docs/research/fit-notes.md`).
 //!
 //! The scattering length of [`cdrf_core::Translucency`] is not fitted here: it is Kubo's σ
 //! ([`crate::gaussian_fit`]), the width of the terminator in mm.
@@ -245,7 +243,14 @@ pub enum TransmissionError {
     },
     /// The fitted profile is not valid (e.g. an amplitude that overflows).
     #[error("fitted transmission profile is invalid: {0}")]
-    Profile(#[from] TranslucencyError),
+    Profile(TranslucencyError),
+}
+
+// The message holds the cause's, which `source()` therefore does not repeat.
+impl From<TranslucencyError> for TransmissionError {
+    fn from(error: TranslucencyError) -> Self {
+        Self::Profile(error)
+    }
 }
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];

@@ -230,6 +230,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                 width: SIZE,
                 height: SIZE,
                 msaa_samples: 4,
+                exposure: 1.0,
             },
             lights: vec![
                 DirectionalLight {

@@ -64,7 +64,7 @@ pub enum MeshUploadError {
 pub enum MaterialError {
     /// Tabulating the Gaussian CDRF failed.
     #[error("tabulating the Gaussian CDRF: {0}")]
-    Tabulate(#[from] LutError),
+    Tabulate(LutError),
     /// A parameter is out of range.
     #[error("{what} = {value:?}: {requirement}")]
     Parameter {
@@ -90,6 +90,13 @@ pub enum MaterialError {
         /// The device's limit.
         max: u32,
     },
+}
+
+// The message holds the cause's, which `source()` therefore does not repeat.
+impl From<LutError> for MaterialError {
+    fn from(error: LutError) -> Self {
+        Self::Tabulate(error)
+    }
 }
 
 /// Why a surface could not be uploaded.

@@ -10,9 +10,9 @@ use crate::material::MaterialId;
 use crate::mesh::MeshId;
 use crate::surface::SurfaceId;
 
-/// The largest [`FrameDesc::exposure`] a frame accepts: beyond it (1e38 was accepted once)
-/// every lit pixel saturates, which is a mistake, not a setting.
-pub const MAX_EXPOSURE: f32 = 1.0e6;
+/// The largest [`FrameDesc::exposure`] a frame accepts (the scene file's bound): beyond it every
+/// lit pixel saturates, which is a mistake, not a setting.
+pub const MAX_EXPOSURE: f32 = cdrf_core::scene::MAX_EXPOSURE;
 
 /// Where the camera is, for the view angle φ.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -93,9 +93,9 @@ pub enum HeadlessError {
     },
     /// The adapter refused to create a device.
     #[error("creating the device: {0}")]
-    Device(#[from] wgpu::RequestDeviceError),
+    Device(wgpu::RequestDeviceError),
     /// The scene file or one of its assets is unusable.
-    #[error("{0}")]
+    #[error(transparent)]
     Scene(#[from] SceneError),
     /// The mesh could not be uploaded.
     #[error("{}: {error}", path.display())]
@@ -126,13 +126,13 @@ pub enum HeadlessError {
     },
     /// The material could not be created.
     #[error("material: {0}")]
-    Material(#[from] MaterialError),
+    Material(MaterialError),
     /// The frame could not be prepared.
-    #[error("{0}")]
+    #[error(transparent)]
     Prepare(#[from] PrepareError),
     /// Reading the image back failed.
     #[error("reading the image back: {0}")]
-    Readback(#[from] ReadbackError),
+    Readback(ReadbackError),
     /// The image is larger than this device can render or read back.
     #[error("image size {width} × {height} px: {reason}")]
     Size {
@@ -144,11 +144,31 @@ pub enum HeadlessError {
         reason: String,
     },
     /// The device could not create the render target.
-    #[error("{0}")]
+    #[error(transparent)]
     Target(#[from] TargetError),
     /// wgpu reported an error while rendering or reading back.
     #[error("wgpu: {0}")]
     Gpu(String),
+}
+
+// The variants that prefix their cause's message keep it out of `source()`, so a printed chain
+// says it once (the error conventions: ARCHITECTURE.md).
+impl From<wgpu::RequestDeviceError> for HeadlessError {
+    fn from(error: wgpu::RequestDeviceError) -> Self {
+        Self::Device(error)
+    }
+}
+
+impl From<MaterialError> for HeadlessError {
+    fn from(error: MaterialError) -> Self {
+        Self::Material(error)
+    }
+}
+
+impl From<ReadbackError> for HeadlessError {
+    fn from(error: ReadbackError) -> Self {
+        Self::Readback(error)
+    }
 }
 
 fn no_adapter_message(preference: AdapterPreference) -> &'static str {
@@ -562,7 +582,7 @@ impl<'a> SceneRenderer<'a> {
         let frame = FrameDesc {
             view: self.view,
             lights,
-            exposure: 1.0,
+            exposure: self.scene.camera.exposure,
             draws: &draws,
             non_local,
             mm_per_world_unit: self.scene.mesh.mm_per_unit,

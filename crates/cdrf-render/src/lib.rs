@@ -15,10 +15,11 @@
 //!
 //! ```
 //! use cdrf_core::glam::{self, Mat4, Vec3};
-//! use cdrf_core::{Mesh, mean_curvature_per_mm, CurvatureOptions};
+//! use cdrf_core::{Mesh, mean_curvature_per_mm, read_lut, CurvatureOptions};
 //! use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
 //! use cdrf_render::{wgpu, DirectionalLight, Draw, FrameDesc, Light, MaterialDesc, MeshDesc,
 //!                   NonLocal, Options, PointLight, Renderer, TargetDesc, ToCamera, View};
+//! # let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data");
 //!
 //! // The host's device (here a software one) and its colour target.
 //! let host = HeadlessDevice::new(AdapterPreference::Software)?;
@@ -26,11 +27,14 @@
 //! let format = wgpu::TextureFormat::Rgba8UnormSrgb;
 //! let mut renderer = Renderer::new(device, &TargetDesc::new(format), Options::default());
 //!
-//! // A wax-like sphere of radius 20 mm (mesh units are mm).
+//! // A sphere of radius 20 mm (mesh units are mm) and the measured wax: the table cdrf-fit
+//! // wrote from photographs of wax spheres (the repository's data/wax-fit/), with its view
+//! // correction, translucency and diffusion profile.
 //! let sphere = Mesh::icosphere(20.0, 3);
 //! let curvature = mean_curvature_per_mm(&sphere, &CurvatureOptions::new(1.0))?;
 //! let mesh = renderer.create_mesh(device, &MeshDesc::from_mesh(&sphere, &curvature))?;
-//! let material = renderer.create_material(device, queue, &MaterialDesc::Lambert { albedo: [0.8; 3] })?;
+//! let wax = read_lut(data.join("wax-fit/measured.exr"))?;
+//! let material = renderer.create_material(device, queue, &MaterialDesc::Measured { lut: &wax })?;
 //!
 //! // Per frame: camera, lights, draws; then record into the host's pass.
 //! let view = View {

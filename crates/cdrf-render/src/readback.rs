@@ -52,7 +52,14 @@ pub enum ReadbackError {
     },
     /// Waiting for the GPU failed.
     #[error("waiting for the GPU: {0}")]
-    Poll(#[from] wgpu::PollError),
+    Poll(wgpu::PollError),
+}
+
+// The message holds the cause's, which `source()` therefore does not repeat.
+impl From<wgpu::PollError> for ReadbackError {
+    fn from(error: wgpu::PollError) -> Self {
+        Self::Poll(error)
+    }
 }
 
 /// Bytes of the buffer that reads back a `width` × `height` texture of `texel_bytes` bytes a

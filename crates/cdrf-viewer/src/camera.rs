@@ -87,6 +87,7 @@ impl OrbitCamera {
             width: width.max(1),
             height: height.max(1),
             msaa_samples: crate::gpu::SLOT_SAMPLES,
+            exposure: 1.0,
         }
     }
 

@@ -96,8 +96,7 @@ const MAX_TIMED_FRAMES: u32 = 10_000;
 
 #[derive(Args)]
 struct RenderArgs {
-    /// Scene file (format: docs/render.md, "Scene files and headless rendering", and the docs of
-    /// `cdrf_core::scene`).
+    /// Scene file (every key: docs/scene-file.md).
     #[arg(long = "scene", value_name = "SCENE.toml")]
     render_scene: PathBuf,
     /// Output: .exr (linear float RGBA, alpha = coverage, plus an sRGB preview .png beside
@@ -109,6 +108,9 @@ struct RenderArgs {
     #[arg(long, default_value_t = 0, value_name = "N",
           value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_TIMED_FRAMES)))]
     frames: u32,
+    /// Multiply the radiance by this (overrides the scene's `[camera] exposure`, default 1).
+    #[arg(long, value_name = "FACTOR")]
+    exposure: Option<f32>,
     /// Print one JSON object on stdout: adapter, width, height, frames, ms_per_frame, outputs.
     #[arg(long)]
     json: bool,
@@ -175,7 +177,16 @@ fn render(args: &RenderArgs) -> anyhow::Result<()> {
         Some("exr" | "png") => {}
         _ => bail!("{}: --out must end in .exr or .png", args.out.display()),
     }
-    let scene = Scene::load(&args.render_scene)?;
+    let mut scene = Scene::load(&args.render_scene)?;
+    if let Some(exposure) = args.exposure {
+        if !(exposure > 0.0 && exposure <= cdrf_core::scene::MAX_EXPOSURE) {
+            bail!(
+                "--exposure {exposure}: must be > 0 and at most {}",
+                cdrf_core::scene::MAX_EXPOSURE
+            );
+        }
+        scene.camera.exposure = exposure;
+    }
     // Every output is checked (not an input, folder writable) and staged before the render.
     let png = args.out.with_extension("png");
     let mut output_paths = Vec::new();
@@ -190,7 +201,9 @@ fn render(args: &RenderArgs) -> anyhow::Result<()> {
         _ => {}
     }
     let staged = StagedOutputs::new(&output_paths, &inputs)?;
-    let assets = scene.load_assets()?;
+    let assets = scene
+        .load_assets()
+        .with_context(|| format!("{}", args.render_scene.display()))?;
     let preference = if args.software {
         AdapterPreference::Software
     } else {
@@ -520,8 +533,7 @@ fn window(cli: &Cli) -> anyhow::Result<()> {
     }
 }
 
-fn run() -> anyhow::Result<()> {
-    let cli = Cli::parse();
+fn run(cli: Cli) -> anyhow::Result<()> {
     let top_level = [
         ("--scene", cli.start.scene.is_some()),
         ("--fit", cli.start.fit.is_some()),
@@ -566,8 +578,40 @@ fn run() -> anyhow::Result<()> {
     }
 }
 
+/// Gives the process a private, empty `XDG_RUNTIME_DIR` (mode 0700, in the temporary folder)
+/// when it has none that is a folder: without one the Vulkan loader and the window system's
+/// libraries print "XDG_RUNTIME_DIR is invalid or not set" every time they start. Returns the
+/// folder's guard, which removes it when dropped.
+///
+/// # Safety
+/// It changes the environment: no other thread may exist yet.
+#[allow(unsafe_code)]
+unsafe fn private_runtime_dir() -> Option<tempfile::TempDir> {
+    if !cfg!(all(unix, not(target_os = "macos")))
+        || std::env::var_os("XDG_RUNTIME_DIR").is_some_and(|dir| Path::new(&dir).is_dir())
+    {
+        return None;
+    }
+    let mut builder = tempfile::Builder::new();
+    builder.prefix("cdrf-runtime-");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o700));
+    }
+    let dir = builder.tempdir().ok()?;
+    // SAFETY: the caller guarantees that no other thread exists.
+    unsafe { std::env::set_var("XDG_RUNTIME_DIR", dir.path()) };
+    Some(dir)
+}
+
 fn main() -> ExitCode {
-    match run() {
+    // First, as clap exits the process on --help or a usage error (no folder to leave behind).
+    let cli = Cli::parse();
+    // SAFETY: no other thread exists yet: parsing the command line starts none.
+    #[allow(unsafe_code)]
+    let _runtime_dir = unsafe { private_runtime_dir() };
+    match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("error: {error:#}");

@@ -107,6 +107,67 @@ fn render_writes_the_golden_bunny_and_reports_json() {
     );
 }
 
+/// `--exposure` and the scene's `[camera] exposure` multiply the radiance; and without an
+/// `XDG_RUNTIME_DIR` the command says nothing about one (it makes its own).
+#[test]
+fn render_exposure_multiplies_the_radiance_and_needs_no_runtime_dir() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = small_bunny_scene(dir.path());
+    let scene = scene.to_str().unwrap();
+    let render = |scene: &str, out: &str, extra: &[&str]| {
+        let output = Command::new(BINARY)
+            .args(["render", "--scene", scene, "--out", out])
+            .args(extra)
+            .current_dir(dir.path())
+            .env_remove("XDG_RUNTIME_DIR")
+            .output()
+            .unwrap();
+        let stderr = text(&output.stderr);
+        assert!(output.status.success(), "{stderr}");
+        assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{stderr}");
+        cdrf_core::image_file::RgbaImage::read_exr(dir.path().join(out)).unwrap()
+    };
+    let one = render(scene, "one.exr", &[]);
+    let two = render(scene, "two.exr", &["--exposure", "2"]);
+    let text = std::fs::read_to_string(scene).unwrap();
+    let keyed = dir.path().join("keyed.toml");
+    std::fs::write(
+        &keyed,
+        text.replace("height = 256", "height = 256\nexposure = 2.0"),
+    )
+    .unwrap();
+    let from_key = render(keyed.to_str().unwrap(), "keyed.exr", &[]);
+    assert_eq!(from_key.pixels, two.pixels);
+    let (mut lit, mut worst) = (0, 0.0f32);
+    for (a, b) in one.pixels.iter().zip(&two.pixels) {
+        assert_eq!(a[3], b[3], "coverage must not change");
+        for c in 0..3 {
+            if a[c] > 1e-3 {
+                lit += 1;
+                worst = worst.max((b[c] / a[c] - 2.0).abs());
+            }
+        }
+    }
+    println!("{lit} lit channels, worst |ratio − 2| {worst}");
+    assert!(
+        lit > 1000 && worst < 2e-3,
+        "{lit} lit channels, worst {worst}"
+    );
+    let output = viewer(
+        dir.path(),
+        &[
+            "render",
+            "--scene",
+            scene,
+            "--out",
+            "x.png",
+            "--exposure",
+            "0",
+        ],
+    );
+    assert_fails(&output, 1, &["--exposure 0"]);
+}
+
 #[test]
 fn render_errors_name_the_file_and_write_nothing() {
     let dir = tempfile::tempdir().unwrap();

@@ -186,10 +186,8 @@ fn main() -> ExitCode {
     match Config::from_args(args).and_then(|config| run(&config)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("error: {error}");
-            for cause in error.chain().skip(1) {
-                eprintln!("  caused by: {cause}");
-            }
+            // The error and its causes, joined with ": ".
+            eprintln!("error: {error:#}");
             ExitCode::FAILURE
         }
     }

@@ -93,10 +93,8 @@ fn main() -> ExitCode {
     match run(Args::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("error: {error}");
-            for cause in error.chain().skip(1) {
-                eprintln!("  caused by: {cause}");
-            }
+            // The error and its causes, joined with ": ".
+            eprintln!("error: {error:#}");
             ExitCode::FAILURE
         }
     }
