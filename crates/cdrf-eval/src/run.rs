@@ -62,6 +62,13 @@ pub fn run_case(
             ),
         });
     }
+    // The references are radiance: a render scaled by an exposure would not be.
+    if scene.camera.exposure != 1.0 {
+        return Err(case_error(format!(
+            "the scene's [camera] exposure is {}: compared renders must be radiance (exposure 1)",
+            scene.camera.exposure
+        )));
+    }
     if (reference.width, reference.height) != (scene.camera.width, scene.camera.height) {
         return Err(case_error(format!(
             "the reference is {} × {} px but the scene's camera is {} × {}",
