@@ -39,6 +39,7 @@ pub mod gaussian_file;
 pub mod image_file;
 pub mod input_file;
 pub mod light;
+pub mod linear;
 pub mod lut;
 pub mod lut_file;
 pub mod mesh;
