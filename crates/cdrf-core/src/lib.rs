@@ -46,6 +46,7 @@ pub mod mesh;
 pub mod patches;
 pub mod scene;
 pub mod specular;
+pub mod subsurface;
 pub mod translucency;
 
 /// The math types of the public API (positions, normals, matrices).
