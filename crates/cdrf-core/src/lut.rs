@@ -548,7 +548,7 @@ impl CdrfLut {
         let kappa = self.curvature_axis.min_per_mm;
         let mut sum = [0.0_f64; 3];
         for i in 0..STEPS {
-            let theta = (i as f32 + 0.5) / STEPS as f32 * std::f32::consts::PI;
+            let theta = (i as f32 + 0.5) / STEPS as f32 * PI;
             let f = self.reflectance(kappa, theta);
             for c in 0..3 {
                 sum[c] += f64::from(f[c]);

@@ -6,12 +6,10 @@ use cdrf_core::environment::ShCoefficients;
 use cdrf_core::glam::{Mat4, Vec3};
 use cdrf_core::light::{Light, NonLocal};
 
-use crate::material::MaterialId;
-use crate::mesh::MeshId;
-use crate::surface::SurfaceId;
+use crate::ids::{MaterialId, MeshId, SurfaceId};
 
-/// The largest [`FrameDesc::exposure`] a frame accepts: beyond it (1e38 was accepted once)
-/// every lit pixel saturates, which is a mistake, not a setting.
+/// The largest [`FrameDesc::exposure`] a frame accepts: beyond it every lit pixel saturates,
+/// so a larger value is a mistake, not a setting.
 pub const MAX_EXPOSURE: f32 = 1.0e6;
 
 /// Where the camera is, for the view angle φ.

@@ -7,15 +7,23 @@ use std::collections::HashMap;
 
 use cdrf_core::light::NonLocal;
 
+use crate::constants::Model;
 use crate::error::PrepareError;
-use crate::gpu_data::block_on;
 use crate::gpu_types::{GpuDraw, GpuVertex, GpuVertexTerms, uniform_layout_entry};
-use crate::non_local::SUBSURFACE_FORMAT;
-use crate::shaders::{Model, shading_shader_source};
+use crate::passes::interreflection::InterreflectionPipelines;
+use crate::passes::subsurface_pyramid::SUBSURFACE_FORMAT;
+use crate::shaders::shading_shader_source;
 use crate::target::{LutFiltering, Options, TargetDesc};
 
 /// The pipeline variants' key: target, shading model, non-local terms.
 type PipelineKey = (TargetDesc, Model, NonLocal);
+
+/// Whether non-local terms need the light maps (a shadow map per face of each shadowed light,
+/// and with the gather the subsurface pyramid): shadows, transmission and the subsurface
+/// gather do; the inter-reflection does not.
+pub(crate) fn uses_light_maps(non_local: NonLocal) -> bool {
+    non_local.shadows || non_local.transmission || non_local.subsurface
+}
 
 /// Whether a shading pipeline reads per-vertex non-local terms, which the vertex terms pass
 /// (`cs_vertex_terms`) writes: the translucent models' visibility, transmission and gather,
@@ -23,9 +31,7 @@ type PipelineKey = (TargetDesc, Model, NonLocal);
 /// per pixel).
 pub(crate) fn uses_vertex_terms(model: Model, non_local: NonLocal) -> bool {
     model != Model::Curvature
-        && (non_local.interreflection
-            || (model != Model::Lambert
-                && (non_local.shadows || non_local.transmission || non_local.subsurface)))
+        && (non_local.interreflection || (model != Model::Lambert && uses_light_maps(non_local)))
 }
 
 /// Whether a device with these limits runs the vertex terms pass: compute shaders of 64
@@ -46,17 +52,16 @@ pub(crate) struct Pipelines {
     /// pipeline layout; `None` on a device without compute shaders or storage buffers.
     terms_layouts: Option<(wgpu::BindGroupLayout, wgpu::PipelineLayout)>,
     cache: HashMap<PipelineKey, wgpu::RenderPipeline>,
-    terms_cache: HashMap<(Model, NonLocal), TermsPipelines>,
+    compute_cache: HashMap<(Model, NonLocal), ComputePipelines>,
     subsurface_map: Option<wgpu::RenderPipeline>,
 }
 
-/// The compute passes of a shading model and its non-local terms.
-pub(crate) struct TermsPipelines {
-    /// `cs_vertex_terms`.
+/// The compute passes' pipelines of a shading model and its non-local terms.
+pub(crate) struct ComputePipelines {
+    /// `cs_vertex_terms`: each vertex's non-local terms of the direct light.
     pub(crate) vertex_terms: wgpu::ComputePipeline,
-    /// With the inter-reflection: `cs_patch_emitters`, `cs_emitter_bounce` and
-    /// `cs_vertex_interreflection`.
-    pub(crate) interreflection: Option<[wgpu::ComputePipeline; 3]>,
+    /// With the inter-reflection, its stages.
+    pub(crate) interreflection: Option<InterreflectionPipelines>,
 }
 
 impl Pipelines {
@@ -114,7 +119,7 @@ impl Pipelines {
             shader,
             layout,
             terms_layouts,
-            terms_cache: HashMap::new(),
+            compute_cache: HashMap::new(),
             cache: HashMap::new(),
             subsurface_map: None,
         }
@@ -142,12 +147,8 @@ impl Pipelines {
     }
 
     /// The compute passes' pipelines of a shading model and its non-local terms, if built.
-    pub(crate) fn vertex_terms(
-        &self,
-        model: Model,
-        non_local: NonLocal,
-    ) -> Option<&TermsPipelines> {
-        self.terms_cache.get(&(model, non_local))
+    pub(crate) fn compute(&self, model: Model, non_local: NonLocal) -> Option<&ComputePipelines> {
+        self.compute_cache.get(&(model, non_local))
     }
 
     /// Builds the pipeline of a variant unless cached, and the vertex terms pass's pipeline
@@ -198,7 +199,7 @@ impl Pipelines {
         let terms_pipeline_layout = self
             .terms_layouts
             .as_ref()
-            .filter(|_| terms && !self.terms_cache.contains_key(&(model, non_local)))
+            .filter(|_| terms && !self.compute_cache.contains_key(&(model, non_local)))
             .map(|(_, layout)| layout);
         let terms_pipeline = terms_pipeline_layout.map(|layout| {
             let compute = |label, entry_point| {
@@ -211,18 +212,11 @@ impl Pipelines {
                     cache: None,
                 })
             };
-            TermsPipelines {
+            ComputePipelines {
                 vertex_terms: compute("cdrf vertex terms pipeline", "cs_vertex_terms"),
-                interreflection: non_local.interreflection.then(|| {
-                    [
-                        compute("cdrf patch emitters pipeline", "cs_patch_emitters"),
-                        compute("cdrf emitter bounce pipeline", "cs_emitter_bounce"),
-                        compute(
-                            "cdrf vertex interreflection pipeline",
-                            "cs_vertex_interreflection",
-                        ),
-                    ]
-                }),
+                interreflection: non_local
+                    .interreflection
+                    .then(|| InterreflectionPipelines::new(&compute)),
             }
         });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -264,7 +258,7 @@ impl Pipelines {
             multiview_mask: None,
             cache: None,
         });
-        if let Some(error) = block_on(scope.pop()) {
+        if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(PrepareError::Pipeline {
                 target,
                 message: error.to_string(),
@@ -272,7 +266,8 @@ impl Pipelines {
         }
         self.cache.insert(key, pipeline);
         if let Some(terms_pipeline) = terms_pipeline {
-            self.terms_cache.insert((model, non_local), terms_pipeline);
+            self.compute_cache
+                .insert((model, non_local), terms_pipeline);
         }
         Ok(())
     }
@@ -355,7 +350,7 @@ impl Pipelines {
             multiview_mask: None,
             cache: None,
         });
-        if let Some(error) = block_on(scope.pop()) {
+        if let Some(error) = pollster::block_on(scope.pop()) {
             let format = targets
                 .iter()
                 .flatten()

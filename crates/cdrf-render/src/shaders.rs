@@ -1,79 +1,23 @@
 //! The WGSL of the passes, composed from the files in this crate's `shaders/` folder and the
-//! constants both sides share, which are defined here once and written into the WGSL.
+//! constants both sides share (defined once in `constants`), written into the WGSL.
 //!
 //! Each shader is: [`wgsl_constants`], then `shaders/common.wgsl` (the declarations the passes
 //! share), then the shader's own file.
 
 use std::mem::offset_of;
 
+use crate::constants::{
+    ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_COEFFICIENTS, ENVIRONMENT_ZONAL_ROWS,
+    GPU_LIGHT_DIRECTIONAL, GPU_LIGHT_POINT, GPU_LIGHT_SPOT, GPU_SHADOW_ORTHOGRAPHIC,
+    GPU_SHADOW_PERSPECTIVE, MAX_LIGHTS, MAX_SHADOW_FACES, MAX_SHADOW_LIGHTS, Model, PENUMBRA_TAPS,
+    SUBSURFACE_KERNEL_SAMPLES,
+};
 use crate::gpu_types::GpuVertex;
-
-/// Most lights in one frame.
-pub const MAX_LIGHTS: usize = 16;
-/// Lights with a shadow map: the first four of a frame, directional lights first (an
-/// orthographic map each; point and spot lights a perspective map, or a cube of six when the
-/// light is among the draws). Later ones shade with the local model only.
-pub const MAX_SHADOW_LIGHTS: usize = 4;
-/// Faces of a shadowed light's map at most (a cube).
-pub(crate) const MAX_SHADOW_FACES: usize = 6;
-/// Penumbra taps per shadowed light: the centre and a Vogel spiral out to 2σ, the same spiral
-/// at every vertex and every tap read. Not fewer taps turned per vertex, nor a few probes
-/// deciding whether to read the rest: neighbouring vertices that read different taps disagree
-/// about a shadow's edge and paint blotches or jagged steps (12 taps turned per vertex with 5
-/// probes: 1.55 × the local model's pixel-scale roughness on the knot; 32 fixed taps, all
-/// read: 1.12 ×). Each tap's lit-or-not is a step, so a shadow's edge crossing the spiral
-/// moves the sum in steps of a tap's weight: with 32 taps (a weight of up to 7 % each) they
-/// showed as flame-like streaks along the knot's cast shadows (its shadows alone 1.17 × the
-/// local model's roughness at 512²), with 256 not (0.98 ×; `tests/tests/non_local.rs`). The
-/// vertex terms pass reads them once per vertex.
-pub(crate) const PENUMBRA_TAPS: usize = 256;
-/// Samples of the subsurface gather's far-field kernel R_far(d), on a square-root grid in d
-/// (fine where R_far changes fastest).
-pub(crate) const SUBSURFACE_KERNEL_SAMPLES: usize = 128;
-
-/// The spherical-harmonics order of the environment light: bands 0…4, 25 coefficients. Order 2
-/// (the classic irradiance map's 9) misses up to 20 % of the brightest radiance under a sun for
-/// the measured table, whose rows are flatter than cos θ near the normal; order 4 keeps it
-/// under 4 % (`crates/cdrf-core/tests/environment.rs`).
-pub const ENVIRONMENT_SH_ORDER: usize = 4;
-pub(crate) const ENVIRONMENT_SH_BANDS: usize = ENVIRONMENT_SH_ORDER + 1;
-pub(crate) const ENVIRONMENT_SH_COEFFICIENTS: usize = ENVIRONMENT_SH_BANDS * ENVIRONMENT_SH_BANDS;
-/// Rows of a material's zonal table a_l(κ), uniform in κ over its table's curvature axis.
-pub(crate) const ENVIRONMENT_ZONAL_ROWS: usize = 64;
-
-/// `Light.kind` in the WGSL.
-pub(crate) const GPU_LIGHT_DIRECTIONAL: u32 = 0;
-pub(crate) const GPU_LIGHT_POINT: u32 = 1;
-pub(crate) const GPU_LIGHT_SPOT: u32 = 2;
-
-/// `ShadowLight.projection` in the WGSL.
-pub(crate) const GPU_SHADOW_ORTHOGRAPHIC: u32 = 0;
-pub(crate) const GPU_SHADOW_PERSPECTIVE: u32 = 1;
 
 const COMMON: &str = include_str!("../shaders/common.wgsl");
 const SHADING: &str = include_str!("../shaders/cdrf.wgsl");
 const SHADOW: &str = include_str!("../shaders/shadow.wgsl");
 const SUBSURFACE_REDUCE: &str = include_str!("../shaders/subsurface_reduce.wgsl");
-
-/// The shading models of the pipelines (the shader's `MODEL` override and `MODEL_*` constants).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub(crate) enum Model {
-    Measured = 0,
-    GaussianLut = 1,
-    GaussianAnalytic = 2,
-    Lambert = 3,
-    Curvature = 4,
-}
-
-impl Model {
-    const ALL: [(Self, &'static str); 5] = [
-        (Self::Measured, "MODEL_MEASURED"),
-        (Self::GaussianLut, "MODEL_GAUSSIAN_LUT"),
-        (Self::GaussianAnalytic, "MODEL_GAUSSIAN_ANALYTIC"),
-        (Self::Lambert, "MODEL_LAMBERT"),
-        (Self::Curvature, "MODEL_CURVATURE"),
-    ];
-}
 
 /// The WGSL declarations of the constants the Rust side defines.
 pub fn wgsl_constants() -> String {
