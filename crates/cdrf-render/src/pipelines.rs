@@ -216,7 +216,7 @@ impl Pipelines {
                 vertex_terms: compute("cdrf vertex terms pipeline", "cs_vertex_terms"),
                 interreflection: non_local
                     .interreflection
-                    .then(|| InterreflectionPipelines::new(&compute)),
+                    .then(|| InterreflectionPipelines::new(compute)),
             }
         });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
