@@ -100,8 +100,10 @@ pub fn solve_3x3(m: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
 /// use cdrf_core::linear::solve_tridiagonal;
 ///
 /// // [[2, 1, 0], [1, 2, 1], [0, 1, 2]] x = [4, 8, 8]
-/// let x = solve_tridiagonal(&mut [2.0, 2.0, 2.0], &[1.0, 1.0], &mut [4.0, 8.0, 8.0]);
-/// assert_eq!(x, vec![1.0, 2.0, 3.0]);
+/// let x = solve_tridiagonal(&mut [2.0_f64, 2.0, 2.0], &[1.0, 1.0], &mut [4.0, 8.0, 8.0]);
+/// for (x, expected) in x.iter().zip([1.0, 2.0, 3.0]) {
+///     assert!((x - expected).abs() < 1e-12, "{x} vs {expected}");
+/// }
 /// ```
 pub fn solve_tridiagonal<T>(diagonal: &mut [T], upper: &[T], rhs: &mut [T]) -> Vec<T>
 where
