@@ -7,8 +7,7 @@
 
 use std::collections::HashMap;
 
-use cdrf_core::glam::{Mat3, Mat4, Vec3, Vec4};
-use cdrf_core::light::Light;
+use cdrf_core::glam::{Mat3, Mat4, Vec3};
 
 use crate::constants::{
     GPU_SHADOW_ORTHOGRAPHIC, GPU_SHADOW_PERSPECTIVE, MAX_SHADOW_FACES, MAX_SHADOW_LIGHTS,
@@ -20,18 +19,17 @@ use crate::gpu_types::{
 };
 use crate::ids::MeshId;
 use crate::mesh::GpuMesh;
+use crate::passes::light_maps::light_camera::LightCamera;
 use crate::passes::subsurface_pyramid::{
     SubsurfacePyramid, SubsurfaceReduce, subsurface_resolution,
 };
 use crate::shaders::shadow_shader_source;
 use crate::target::Options;
 
+mod light_camera;
+
 /// The shadow maps' depth format.
 const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-
-/// The largest angle off a perspective face's axis at which it sees the whole bounding sphere;
-/// nearer lights get a cube.
-const SINGLE_FACE_HALF_ANGLE_DEG: f32 = 60.0;
 
 /// A draw of the frame as the light maps render it: its mesh and triangles, its transforms'
 /// offset in the draw buffer and its material's bind group.
@@ -493,114 +491,6 @@ fn record_light_view(
         pass.set_index_buffer(caster.mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(caster.indices.clone(), 0, instance..instance + 1);
     }
-}
-
-/// A shadowed light's camera, fitted to the draws' bounding sphere: orthographic along a
-/// directional light; for a point or spot light perspective faces about its position — one
-/// aimed at the sphere when the light is outside it (the sphere seen within 60° of the axis),
-/// else a cube of six (+x, −x, +y, −y, +z, −z, the order the shader picks faces in).
-struct LightCamera {
-    /// World → each face's light space, world units (rotation and translation): x, y across
-    /// the light, z along it — from the map's light-side plane (orthographic) or from the light
-    /// (perspective).
-    faces: Vec<Mat4>,
-    /// The light's position (perspective), or `None` (orthographic).
-    position: Option<Vec3>,
-    /// Orthographic: half the map's side, world units; perspective: tan of half a face's field
-    /// of view.
-    half_extent: f32,
-    /// Depth stored as 1, world units.
-    depth_range: f32,
-}
-
-impl LightCamera {
-    fn fit(light: &Light, centre: Vec3, radius: f32) -> Self {
-        let half_extent = Self::half_extent_for(radius);
-        let position = match light {
-            Light::Directional(light) => {
-                let light_from_world = Mat4::from_translation(Vec3::new(0.0, 0.0, half_extent))
-                    * looking_along(-light.to_light.normalize())
-                    * Mat4::from_translation(-centre);
-                return Self {
-                    faces: vec![light_from_world],
-                    position: None,
-                    half_extent,
-                    depth_range: 2.0 * half_extent,
-                };
-            }
-            Light::Point(light) => light.position,
-            Light::Spot(light) => light.position,
-        };
-        let offset = centre - position;
-        let distance = offset.length();
-        let depth_range = (distance + half_extent).max(1e-6);
-        let from_light = Mat4::from_translation(-position);
-        if half_extent < distance * SINGLE_FACE_HALF_ANGLE_DEG.to_radians().sin() {
-            let forward = offset / distance;
-            Self {
-                faces: vec![looking_along(forward) * from_light],
-                position: Some(position),
-                half_extent: half_extent / (distance * distance - half_extent * half_extent).sqrt(),
-                depth_range,
-            }
-        } else {
-            let axes = [
-                Vec3::X,
-                Vec3::NEG_X,
-                Vec3::Y,
-                Vec3::NEG_Y,
-                Vec3::Z,
-                Vec3::NEG_Z,
-            ];
-            Self {
-                faces: axes.map(|axis| looking_along(axis) * from_light).to_vec(),
-                position: Some(position),
-                half_extent: 1.0,
-                depth_range,
-            }
-        }
-    }
-
-    /// Half the orthographic map's side for a bounding sphere of `radius` (world units): a
-    /// margin so the sphere's rim is not on the map's edge or its far plane.
-    fn half_extent_for(radius: f32) -> f32 {
-        radius * 1.02
-    }
-
-    /// Face `face`'s light space → the shadow pass's clip space. Orthographic: depth = z /
-    /// depth range; perspective: x / (z·tan), y / (z·tan), clipped to 0.1 % … 100 % of the
-    /// depth range (the fragment shader writes the distance from the light as depth).
-    fn clip_from_world(&self, face: usize) -> Mat4 {
-        let light_from_world = self.faces[face];
-        if self.position.is_none() {
-            return Mat4::from_scale(Vec3::new(
-                1.0 / self.half_extent,
-                1.0 / self.half_extent,
-                1.0 / self.depth_range,
-            )) * light_from_world;
-        }
-        let (far, near) = (self.depth_range, self.depth_range * 1e-3);
-        let t = self.half_extent;
-        let projection = Mat4::from_cols(
-            Vec4::new(1.0 / t, 0.0, 0.0, 0.0),
-            Vec4::new(0.0, 1.0 / t, 0.0, 0.0),
-            Vec4::new(0.0, 0.0, far / (far - near), 1.0),
-            Vec4::new(0.0, 0.0, -near * far / (far - near), 0.0),
-        );
-        projection * light_from_world
-    }
-}
-
-/// The rotation whose z axis is `forward` (unit) and x, y span the plane across it.
-fn looking_along(forward: Vec3) -> Mat4 {
-    let helper = if forward.y.abs() < 0.9 {
-        Vec3::Y
-    } else {
-        Vec3::X
-    };
-    let x = helper.cross(forward).normalize();
-    let y = forward.cross(x);
-    Mat4::from_mat3(Mat3::from_cols(x, y, forward).transpose())
 }
 
 /// A sphere around every draw's mesh in world space (radius > 0).
