@@ -15,6 +15,8 @@ pub(crate) const MAX_SHADOW_FACES: usize = 6;
 /// a tap's weight: this many keeps those steps from showing as streaks along cast shadows.
 /// The vertex terms pass reads them once per vertex.
 pub(crate) const PENUMBRA_TAPS: usize = 256;
+/// Invocations per workgroup of the compute passes (the WGSL's `@workgroup_size`).
+pub(crate) const COMPUTE_WORKGROUP_SIZE: u32 = 64;
 /// Samples of the subsurface gather's far-field kernel R_far(d), on a square-root grid in d
 /// (fine where R_far changes fastest).
 pub(crate) const SUBSURFACE_KERNEL_SAMPLES: usize = 128;

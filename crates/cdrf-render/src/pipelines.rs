@@ -7,7 +7,7 @@ use std::collections::HashMap;
 
 use cdrf_core::light::NonLocal;
 
-use crate::constants::Model;
+use crate::constants::{COMPUTE_WORKGROUP_SIZE, Model};
 use crate::error::PrepareError;
 use crate::gpu_types::{GpuDraw, GpuVertex, GpuVertexTerms, uniform_layout_entry};
 use crate::passes::interreflection::InterreflectionPipelines;
@@ -34,13 +34,13 @@ pub(crate) fn uses_vertex_terms(model: Model, non_local: NonLocal) -> bool {
         && (non_local.interreflection || (model != Model::Lambert && uses_light_maps(non_local)))
 }
 
-/// Whether a device with these limits runs the vertex terms pass: compute shaders of 64
-/// invocations a group reading the mesh's vertices and writing the terms, and the
-/// inter-reflection's patches and emitters (six storage buffers).
+/// Whether a device with these limits runs the vertex terms pass: compute shaders of
+/// [`COMPUTE_WORKGROUP_SIZE`] invocations a group reading the mesh's vertices and writing the
+/// terms, and the inter-reflection's patches and emitters (six storage buffers).
 pub(crate) fn runs_vertex_terms(limits: &wgpu::Limits) -> bool {
     limits.max_storage_buffers_per_shader_stage >= 6
-        && limits.max_compute_workgroup_size_x >= 64
-        && limits.max_compute_invocations_per_workgroup >= 64
+        && limits.max_compute_workgroup_size_x >= COMPUTE_WORKGROUP_SIZE
+        && limits.max_compute_invocations_per_workgroup >= COMPUTE_WORKGROUP_SIZE
 }
 
 /// The shading shader, its layouts and the pipelines built from them.

@@ -11,7 +11,7 @@ use std::collections::{HashMap, HashSet};
 use cdrf_core::glam::Mat4;
 use cdrf_core::light::NonLocal;
 
-use crate::constants::Model;
+use crate::constants::{COMPUTE_WORKGROUP_SIZE, Model};
 use crate::draw_buffer::draw_binding;
 use crate::error::PrepareError;
 use crate::gpu_types::{GpuPatch, GpuVertexTerms};
@@ -21,8 +21,6 @@ use crate::mesh::GpuMesh;
 use crate::passes::interreflection::{self, Emitters, Step};
 use crate::pipelines::{ComputePipelines, Pipelines, runs_vertex_terms};
 
-/// The shader's workgroup size.
-const WORKGROUP_SIZE: u32 = 64;
 /// Most workgroups in one row of a dispatch's grid.
 const MAX_GROUPS_PER_ROW: u32 = 65_535;
 
@@ -364,7 +362,7 @@ fn dispatch(pass: &mut wgpu::ComputePass<'_>, runs: &[Run<'_>], kernel: Kernel, 
         pass.set_bind_group(1, run.material, &[]);
         pass.set_bind_group(2, &run.bind_groups[source], &[run.region.draw_offset]);
         // On a grid whose rows hold at most MAX_GROUPS_PER_ROW groups.
-        let groups = count.div_ceil(WORKGROUP_SIZE);
+        let groups = count.div_ceil(COMPUTE_WORKGROUP_SIZE);
         let columns = groups.clamp(1, MAX_GROUPS_PER_ROW);
         pass.dispatch_workgroups(columns, groups.div_ceil(columns), 1);
     }
