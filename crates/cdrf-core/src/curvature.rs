@@ -79,6 +79,7 @@ use glam::{DMat3, DVec3, Vec3};
 use rayon::prelude::*;
 use thiserror::Error;
 
+use crate::linear::solve_cholesky;
 use crate::mesh::{Mesh, VertexFaces};
 
 /// Options for [`mean_curvature_per_mm`].
@@ -617,7 +618,7 @@ fn vertex_normal(
             atz[i] += weight * row[i] * z;
         }
     }
-    match solve_cholesky_5(&ata, &atz) {
+    match solve_cholesky(&ata, &atz) {
         Some([a, b, c, slope_x, slope_y]) if slope_x.hypot(slope_y) <= MAX_REFINEMENT_SLOPE => {
             // Mean curvature of z = a x² + b xy + c y² + d x + e y at 0, sign flipped for the
             // outward normal, in model units (coordinates were multiplied by `scale`).
@@ -638,46 +639,6 @@ fn vertex_normal(
         }
         _ => (n0.as_vec3(), None),
     }
-}
-
-/// Solves `A x = b` for a symmetric positive definite 5×5 `A` given by its lower triangle;
-/// `None` if `A` is (numerically) singular.
-#[allow(clippy::needless_range_loop)] // index notation mirrors the textbook algorithm
-fn solve_cholesky_5(a: &[[f64; 5]; 5], b: &[f64; 5]) -> Option<[f64; 5]> {
-    let mut l = [[0.0f64; 5]; 5];
-    for i in 0..5 {
-        for j in 0..=i {
-            let mut sum = a[i][j];
-            for k in 0..j {
-                sum -= l[i][k] * l[j][k];
-            }
-            if i == j {
-                if sum <= 1e-10 * a[i][i] || sum <= 0.0 {
-                    return None;
-                }
-                l[i][i] = sum.sqrt();
-            } else {
-                l[i][j] = sum / l[j][j];
-            }
-        }
-    }
-    let mut y = [0.0f64; 5];
-    for i in 0..5 {
-        let mut sum = b[i];
-        for k in 0..i {
-            sum -= l[i][k] * y[k];
-        }
-        y[i] = sum / l[i][i];
-    }
-    let mut x = [0.0f64; 5];
-    for i in (0..5).rev() {
-        let mut sum = y[i];
-        for k in i + 1..5 {
-            sum -= l[k][i] * x[k];
-        }
-        x[i] = sum / l[i][i];
-    }
-    Some(x)
 }
 
 /// A face's share of the estimate: ½ trace of its fitted II and its Voronoi corner areas.

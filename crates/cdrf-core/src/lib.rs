@@ -39,6 +39,7 @@ pub mod gaussian_file;
 pub mod image_file;
 pub mod input_file;
 pub mod light;
+pub mod linear;
 pub mod lut;
 pub mod lut_file;
 pub mod mesh;
@@ -46,6 +47,7 @@ pub mod patches;
 pub mod scene;
 pub mod shading;
 pub mod specular;
+pub mod subsurface;
 pub mod translucency;
 
 /// The math types of the public API (positions, normals, matrices).

@@ -538,6 +538,25 @@ impl CdrfLut {
         (numerator / denominator as f32).to_array()
     }
 
+    /// The total diffuse reflectance of the flattest row, per channel: `∫₀^π f(κ_min, θ) dθ`
+    /// (720 midpoint steps, bilinear reads). A CDRF blurs `cos⁺θ` along the great circle with
+    /// a kernel of unit mass, which keeps `∫₋π^π f dθ = 2 · albedo` (see [`crate::gaussian`]),
+    /// so this is the flat surface's albedo — which f(κ, 0) itself is not on a curved row: the
+    /// light that enters beside the point arrives at a lower cosine.
+    pub fn flat_albedo(&self) -> [f32; 3] {
+        const STEPS: usize = 720;
+        let kappa = self.curvature_axis.min_per_mm;
+        let mut sum = [0.0_f64; 3];
+        for i in 0..STEPS {
+            let theta = (i as f32 + 0.5) / STEPS as f32 * PI;
+            let f = self.reflectance(kappa, theta);
+            for c in 0..3 {
+                sum[c] += f64::from(f[c]);
+            }
+        }
+        sum.map(|s| (s * std::f64::consts::PI / STEPS as f64) as f32)
+    }
+
     /// Radiance factor with the view correction: f(κ, θ) · g(θ, φ), π·L/E.
     /// Multiply by E/π for radiance.
     pub fn evaluate(

@@ -170,6 +170,27 @@ pub fn local_entry_cosine(curvature_per_mm: f32, cos_theta: f32) -> f32 {
     }
 }
 
+/// The Gaussian weight per channel of each of `TAPS` penumbra taps around a point: tap k lies
+/// at radius `r_k = 2·σ_max·√(k / TAPS)` on the surface (a Vogel spiral, equal area per tap)
+/// and weighs `exp(−r_k² / (2σ²))` with each channel's scattering length σ; a renderer
+/// averages the taps' visibility with these weights. With no scattering length (σ_max ≤ 0)
+/// every tap weighs 1.
+pub fn penumbra_tap_weights<const TAPS: usize>(scattering_length_mm: Vec3) -> [Vec3; TAPS] {
+    let sigma_max = scattering_length_mm.max_element();
+    std::array::from_fn(|k| {
+        if sigma_max <= 0.0 {
+            Vec3::ONE
+        } else {
+            let radius_squared = 4.0 * sigma_max * sigma_max * k as f32 / TAPS as f32;
+            Vec3::from_array(
+                scattering_length_mm
+                    .to_array()
+                    .map(|sigma| (-0.5 * radius_squared / (sigma * sigma).max(1e-12)).exp()),
+            )
+        }
+    })
+}
+
 /// Why translucency terms are invalid.
 #[derive(Debug, Error, Clone, PartialEq)]
 #[non_exhaustive]
@@ -223,6 +244,33 @@ mod tests {
         assert_eq!(local_entry_cosine(1.0 / 20.0, -0.3), 0.3);
         assert_eq!(local_entry_cosine(1.0 / 20.0, 0.3), 1.0);
         assert_eq!(local_entry_cosine(0.0, -0.3), 1.0);
+    }
+
+    #[test]
+    fn penumbra_taps_weigh_a_gaussian_of_each_channels_width() {
+        const TAPS: usize = 64;
+        let weights = penumbra_tap_weights::<TAPS>(Vec3::new(2.0, 1.0, 0.0));
+        // The widest channel reaches 2σ at the last tap: exp(−2k / TAPS).
+        for (k, w) in weights.iter().enumerate() {
+            let widest = (-2.0 * k as f32 / TAPS as f32).exp();
+            assert!((w.x - widest).abs() < 1e-6, "tap {k}: {w}");
+            // Half the width: (2σ/σ)² = 4 times the exponent.
+            assert!((w.y - widest.powi(4)).abs() < 1e-6, "tap {k}: {w}");
+        }
+        assert_eq!(weights[0], Vec3::new(1.0, 1.0, 1.0));
+        // A zero width keeps only the centre.
+        assert!(weights[1..].iter().all(|w| w.z == 0.0));
+        // Normalised, a channel's weights sum to 1 and fall with radius.
+        let total: f32 = weights.iter().map(|w| w.x).sum();
+        let normalised: Vec<f32> = weights.iter().map(|w| w.x / total).collect();
+        assert!((normalised.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+        assert!(normalised.windows(2).all(|pair| pair[1] < pair[0]));
+        // No scattering length: every tap alike.
+        assert!(
+            penumbra_tap_weights::<TAPS>(Vec3::ZERO)
+                .iter()
+                .all(|w| *w == Vec3::ONE)
+        );
     }
 
     #[test]

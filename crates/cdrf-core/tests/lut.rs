@@ -269,6 +269,27 @@ fn lambert_albedo_recovers_a_lambertian_table_and_fits_a_glowing_one() {
     }
 }
 
+/// ∫₀^π f(κ_min, θ) dθ: the albedo of a Lambertian table (∫₀^π cos⁺θ dθ = 1), and the scale of a
+/// Gaussian CDRF, whose kernel of unit mass keeps the flat surface's total reflectance.
+#[test]
+fn flat_albedo_is_the_flattest_rows_integral() {
+    let axis = CurvatureAxis::from_radii_mm(50.0, 15.0, 8);
+    let albedo = [0.8, 0.6, 0.3];
+    let lambert = CdrfLut::tabulate(&Lambert { albedo }, axis, 181).unwrap();
+    let flat = lambert.flat_albedo();
+    for (a, b) in flat.iter().zip(albedo) {
+        assert!((a - b).abs() < 1e-4, "{flat:?} vs {albedo:?}");
+    }
+    let gaussian = cdrf_core::gaussian::GaussianCdrf::with_scale([5.0; 3], albedo).unwrap();
+    let flat = CdrfLut::tabulate(&gaussian, axis, 361)
+        .unwrap()
+        .flat_albedo();
+    println!("flat albedo of a Gaussian CDRF with scale {albedo:?}: {flat:?}");
+    for (a, b) in flat.iter().zip(albedo) {
+        assert!((a - b).abs() < 0.01 * b, "{flat:?} vs {albedo:?}");
+    }
+}
+
 /// A view correction with curvature layers: each layer at its κ, linear between, the end layers
 /// beyond the axis; a wrong shape or axis is refused.
 #[test]

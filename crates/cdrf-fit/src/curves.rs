@@ -28,6 +28,7 @@
 //! filled by a light first-difference penalty: flat toward the ends, as f's even symmetry about
 //! 0 and π requires, and linear across gaps.
 
+use cdrf_core::linear::{SingularColumn, solve_gaussian, solve_tridiagonal};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -371,22 +372,6 @@ fn reweight_points(
         });
 }
 
-/// Solves a symmetric tridiagonal system in place (Thomas algorithm), per channel.
-fn solve_tridiagonal(diagonal: &mut [Vec3], upper: &mut [Vec3], rhs: &mut [Vec3]) -> Vec<Vec3> {
-    let n = diagonal.len();
-    for i in 1..n {
-        let factor = upper[i - 1] / diagonal[i - 1];
-        diagonal[i] -= factor * upper[i - 1];
-        rhs[i] -= factor * rhs[i - 1];
-    }
-    let mut x = vec![Vec3::ZERO; n];
-    x[n - 1] = rhs[n - 1] / diagonal[n - 1];
-    for i in (0..n - 1).rev() {
-        x[i] = (rhs[i] - upper[i] * x[i + 1]) / diagonal[i];
-    }
-    x
-}
-
 /// Adds the first-difference penalty that fills empty nodes and steadies sparse ones: its
 /// strength follows the local data (1e-3 of the nearest non-empty diagonal).
 fn add_smoothness(diagonal: &mut [Vec3], upper: &mut [Vec3]) {
@@ -436,7 +421,7 @@ fn fit_f(fit: &mut CurveFit, points: &[Vec<Point>]) {
                 rhs[a + 1] += wv * p.radiance * b1;
             }
             add_smoothness(&mut diagonal, &mut upper);
-            solve_tridiagonal(&mut diagonal, &mut upper, &mut rhs)
+            solve_tridiagonal(&mut diagonal, &upper, &mut rhs)
                 .into_iter()
                 .map(|v| v.max(Vec3::ZERO))
                 .collect()
@@ -486,7 +471,7 @@ fn fit_g(fit: &mut CurveFit, points: &[Vec<Point>]) {
             a
         });
     add_smoothness(&mut diagonal, &mut upper);
-    let g = solve_tridiagonal(&mut diagonal, &mut upper, &mut rhs);
+    let g = solve_tridiagonal(&mut diagonal, &upper, &mut rhs);
     let g0 = g[0];
     if g0.min_element() > 0.0 && g0.is_finite() {
         fit.g_phi = g.iter().map(|v| (*v / g0).max(Vec3::ZERO)).collect();
@@ -557,38 +542,23 @@ fn fit_correction(fit: &mut CurveFit, points: &[Vec<Point>]) {
     fit.correction = Some(corrections);
 }
 
-/// Gaussian elimination with partial pivoting, per channel.
+/// Gaussian elimination with partial pivoting, per channel (the unknowns kept in f32).
 fn solve_dense<const N: usize>(matrix: Vec<[Vec3; N]>, rhs: Vec<Vec3>) -> Option<Vec<Vec3>> {
     let mut solution = vec![Vec3::ZERO; N];
     for channel in 0..3 {
-        let mut a: Vec<Vec<f64>> = matrix
+        let rows = matrix
             .iter()
-            .map(|row| row.iter().map(|v| v[channel] as f64).collect())
+            .zip(&rhs)
+            .map(|(row, b)| {
+                row.iter()
+                    .chain([b])
+                    .map(|v| f64::from(v[channel]))
+                    .collect()
+            })
             .collect();
-        let mut b: Vec<f64> = rhs.iter().map(|v| v[channel] as f64).collect();
-        for column in 0..N {
-            let pivot =
-                (column..N).max_by(|&i, &j| a[i][column].abs().total_cmp(&a[j][column].abs()))?;
-            if a[pivot][column].abs() < 1e-300 {
-                return None;
-            }
-            a.swap(column, pivot);
-            b.swap(column, pivot);
-            for row in column + 1..N {
-                let factor = a[row][column] / a[column][column];
-                if factor != 0.0 {
-                    for k in column..N {
-                        a[row][k] -= factor * a[column][k];
-                    }
-                    b[row] -= factor * b[column];
-                }
-            }
-        }
-        for row in (0..N).rev() {
-            let sum: f64 = (row + 1..N)
-                .map(|k| a[row][k] * solution[k][channel] as f64)
-                .sum();
-            solution[row][channel] = ((b[row] - sum) / a[row][row]) as f32;
+        let x: Vec<f32> = solve_gaussian(rows, SingularColumn::Fail)?;
+        for (value, x) in solution.iter_mut().zip(x) {
+            value[channel] = x;
         }
     }
     Some(solution)

@@ -60,6 +60,7 @@
 use cdrf_core::diffusion::{
     DiffusionProfile, DiffusionProfileError, ProfileTerm, sphere_term_responses,
 };
+use cdrf_core::linear::{SingularColumn, solve_gaussian};
 use glam::Vec3;
 use rayon::prelude::*;
 use thiserror::Error;
@@ -498,43 +499,18 @@ fn nnls(rows: &[(Vec<f64>, f64)], columns: usize) -> Vec<f64> {
 /// partial pivoting on the scaled normal equations, with a tiny ridge against collinear columns.
 fn solve_passive(gram: &[Vec<f64>], atb: &[f64], passive: &[bool]) -> Vec<f64> {
     let index: Vec<usize> = (0..atb.len()).filter(|&i| passive[i]).collect();
-    let m = index.len();
-    let mut a: Vec<Vec<f64>> = index
+    let rows = index
         .iter()
-        .map(|&i| {
+        .enumerate()
+        .map(|(local, &i)| {
             let mut row: Vec<f64> = index.iter().map(|&j| gram[i][j]).collect();
+            row[local] += 1e-10;
             row.push(atb[i]);
             row
         })
         .collect();
-    for (i, row) in a.iter_mut().enumerate() {
-        row[i] += 1e-10;
-    }
-    for col in 0..m {
-        let pivot = (col..m)
-            .max_by(|&p, &q| a[p][col].abs().total_cmp(&a[q][col].abs()))
-            .unwrap_or(col);
-        a.swap(col, pivot);
-        let p = a[col][col];
-        if p.abs() < 1e-300 {
-            continue;
-        }
-        for r in col + 1..m {
-            let f = a[r][col] / p;
-            for c in col..=m {
-                a[r][c] -= f * a[col][c];
-            }
-        }
-    }
-    let mut z_local = vec![0.0; m];
-    for r in (0..m).rev() {
-        let s: f64 = (r + 1..m).map(|c| a[r][c] * z_local[c]).sum();
-        z_local[r] = if a[r][r].abs() < 1e-300 {
-            0.0
-        } else {
-            (a[r][m] - s) / a[r][r]
-        };
-    }
+    let z_local: Vec<f64> =
+        solve_gaussian(rows, SingularColumn::Zero).expect("a singular column gives 0, not None");
     let mut z = vec![0.0; atb.len()];
     for (local, &i) in index.iter().enumerate() {
         z[i] = z_local[local];

@@ -25,6 +25,7 @@
 //!   half-angle place the sphere, each pixel's ray is intersected with it, and the view vector
 //!   is the reversed ray.
 
+use cdrf_core::linear::solve_3x3;
 use glam::{DVec2, Vec2, Vec3};
 
 use crate::dataset::{Light, Projection};
@@ -335,7 +336,7 @@ fn fit_circle(points: &[DVec2], start: (DVec2, f64)) -> (DVec2, f64) {
                 rhs[i] -= row[i] * residual;
             }
         }
-        let Some(step) = solve3(normal, rhs) else {
+        let Some(step) = solve_3x3(normal, rhs) else {
             break;
         };
         center += DVec2::new(step[0], step[1]);
@@ -345,27 +346,6 @@ fn fit_circle(points: &[DVec2], start: (DVec2, f64)) -> (DVec2, f64) {
         }
     }
     (center, radius)
-}
-
-fn solve3(m: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
-    let det = |m: [[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let d = det(m);
-    if d.abs() < 1e-12 {
-        return None;
-    }
-    let mut x = [0.0; 3];
-    for (k, value) in x.iter_mut().enumerate() {
-        let mut mk = m;
-        for row in 0..3 {
-            mk[row][k] = b[row];
-        }
-        *value = det(mk) / d;
-    }
-    Some(x)
 }
 
 /// Where a pixel sees the sphere: its normal and the direction to the camera.

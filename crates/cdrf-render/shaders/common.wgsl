@@ -1,6 +1,6 @@
 // Declarations every pass shares, the shadow pass's included. cdrf-render composes each
-// shader from the constants it generates from its Rust definitions, then this file, then the
-// pass's parts (src/shaders.rs; docs/shading.md). Every struct is `#[repr(C)]` in
+// shader from the constants it generates from its Rust definitions (src/constants.rs), then this
+// file, then the pass's parts (src/shaders.rs; docs/shading.md). Every struct is `#[repr(C)]` in
 // src/gpu_types.rs; a test holds sizes and offsets against naga's reflection.
 
 // One draw's transforms and its surface's factors (cdrf-render's surface module): group 2,

@@ -17,7 +17,7 @@
 
 // Each patch of the draw's mesh as an emitter of the frame (at draw.emitter_first + patch):
 // placed by the draw's transform, its exitance its vertices' area-weighted mean.
-@compute @workgroup_size(64)
+@compute @workgroup_size(COMPUTE_WORKGROUP_SIZE)
 fn cs_patch_emitters(
     @builtin(global_invocation_id) id: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
@@ -48,7 +48,7 @@ fn cs_patch_emitters(
 
 // One bounce: each emitter of the draw's patches gathers what every other emitter sends it
 // and sends out its own light plus that (its receiving part answers as at its mean curvature).
-@compute @workgroup_size(64)
+@compute @workgroup_size(COMPUTE_WORKGROUP_SIZE)
 fn cs_emitter_bounce(
     @builtin(global_invocation_id) id: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
@@ -66,7 +66,7 @@ fn cs_emitter_bounce(
 
 // The inter-reflected radiance at every vertex of the draw's mesh, gathered from the frame's
 // emitters after their bounces (added to what cs_vertex_terms wrote).
-@compute @workgroup_size(64)
+@compute @workgroup_size(COMPUTE_WORKGROUP_SIZE)
 fn cs_vertex_interreflection(
     @builtin(global_invocation_id) id: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,

@@ -2,7 +2,7 @@
 // inter-reflection passes compiles to one straight-line shader (docs/shading.md).
 
 // MODEL_MEASURED, MODEL_GAUSSIAN_LUT, MODEL_GAUSSIAN_ANALYTIC, MODEL_LAMBERT, MODEL_CURVATURE
-// (generated from src/shaders.rs).
+// (generated from src/constants.rs).
 override MODEL: u32 = 0u;
 // true: bilinear filtering by hand (four texel loads, f32 weights); false: the sampler's.
 override MANUAL_FILTERING: bool = false;

@@ -9,7 +9,7 @@
 @group(2) @binding(7) var<storage, read> terms_mesh_vertices: array<f32>;
 @group(2) @binding(8) var<storage, read_write> terms_out: array<VertexTerms>;
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(COMPUTE_WORKGROUP_SIZE)
 fn cs_vertex_terms(
     @builtin(global_invocation_id) id: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,

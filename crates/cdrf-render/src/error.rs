@@ -3,10 +3,9 @@
 use cdrf_core::lut::LutError;
 use thiserror::Error;
 
-use crate::material::MaterialId;
-use crate::mesh::MeshId;
-use crate::shaders::MAX_LIGHTS;
-use crate::surface::SurfaceId;
+use crate::constants::MAX_LIGHTS;
+use crate::frame::MAX_EXPOSURE;
+use crate::ids::{MaterialId, MeshId, SurfaceId};
 use crate::target::TargetDesc;
 
 /// Why a mesh could not be uploaded.
@@ -226,8 +225,8 @@ pub enum PrepareError {
     /// The view matrix, camera position or direction is unusable.
     #[error("the view matrix or camera position is not finite, or the camera direction is zero")]
     BadView,
-    /// The exposure is negative, not finite or above [`MAX_EXPOSURE`](crate::MAX_EXPOSURE).
-    #[error("exposure {exposure}: must be in 0..={}", crate::frame::MAX_EXPOSURE)]
+    /// The exposure is negative, not finite or above [`MAX_EXPOSURE`].
+    #[error("exposure {exposure}: must be in 0..={MAX_EXPOSURE}")]
     BadExposure {
         /// The value given.
         exposure: f32,

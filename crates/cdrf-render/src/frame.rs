@@ -6,9 +6,7 @@ use cdrf_core::environment::ShCoefficients;
 use cdrf_core::glam::{Mat4, Vec3};
 use cdrf_core::light::{Light, NonLocal};
 
-use crate::material::MaterialId;
-use crate::mesh::MeshId;
-use crate::surface::SurfaceId;
+use crate::ids::{MaterialId, MeshId, SurfaceId};
 
 /// The largest [`FrameDesc::exposure`] a frame accepts (the scene file's bound): beyond it every
 /// lit pixel saturates, which is a mistake, not a setting.

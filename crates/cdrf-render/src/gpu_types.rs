@@ -10,7 +10,7 @@ use std::mem::offset_of;
 use bytemuck::{Pod, Zeroable};
 use cdrf_core::glam::{Mat4, Vec2, Vec3, Vec4};
 
-use crate::shaders::{
+use crate::constants::{
     ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_COEFFICIENTS, ENVIRONMENT_ZONAL_ROWS, MAX_LIGHTS,
     MAX_SHADOW_FACES, MAX_SHADOW_LIGHTS, PENUMBRA_TAPS, SUBSURFACE_KERNEL_SAMPLES,
 };

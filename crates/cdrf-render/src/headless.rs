@@ -25,16 +25,16 @@ use cdrf_core::scene::{Material, Projection, Scene, SceneAssets, SceneError};
 use cdrf_core::specular::SpecularLayer;
 use thiserror::Error;
 
+use crate::constants::ENVIRONMENT_SH_ORDER;
 use crate::error::{MaterialError, MeshUploadError, PrepareError, SurfaceError, TargetError};
 use crate::frame::{Draw, FrameDesc, View};
-use crate::gpu_data::{block_on, f16_bits_to_f32};
-use crate::material::{MaterialDesc, MaterialId};
-use crate::mesh::{MeshDesc, MeshId};
+use crate::ids::{MaterialId, MeshId, SurfaceId};
+use crate::material::MaterialDesc;
+use crate::mesh::MeshDesc;
 use crate::offscreen::OffscreenTarget;
 use crate::readback::{ReadbackError, TextureReadback, readback_bytes};
 use crate::renderer::Renderer;
-use crate::shaders::ENVIRONMENT_SH_ORDER;
-use crate::surface::{SurfaceDesc, SurfaceId};
+use crate::surface::SurfaceDesc;
 use crate::target::{Options, TargetDesc};
 
 /// The colour format of headless renders.
@@ -194,7 +194,7 @@ impl HeadlessDevice {
     /// [`HeadlessError::Device`].
     pub fn new(preference: AdapterPreference) -> Result<Self, HeadlessError> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
-        let adapters = block_on(instance.enumerate_adapters(SUPPORTED_BACKENDS));
+        let adapters = pollster::block_on(instance.enumerate_adapters(SUPPORTED_BACKENDS));
         let describe = |adapter: &wgpu::Adapter| {
             let info = adapter.get_info();
             format!("{} ({:?}, {:?})", info.name, info.device_type, info.backend)
@@ -224,12 +224,13 @@ impl HeadlessDevice {
                 preference,
                 available,
             })?;
-        let (device, queue) = block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("cdrf headless device"),
-            required_features: wgpu::Features::empty(),
-            required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
-            ..Default::default()
-        }))?;
+        let (device, queue) =
+            pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+                label: Some("cdrf headless device"),
+                required_features: wgpu::Features::empty(),
+                required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
+                ..Default::default()
+            }))?;
         // wgpu's default handler panics; errors outside a scope are recorded and reported by
         // the next render instead.
         let uncaptured = Arc::new(Mutex::new(Vec::new()));
@@ -478,7 +479,7 @@ impl<'a> SceneRenderer<'a> {
             })
             .collect();
         let targets = OffscreenTarget::try_new(&device.device, &target, width, height)?;
-        if let Some(error) = block_on(scope.pop()) {
+        if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(HeadlessError::Gpu(error.to_string()));
         }
         device.uncaptured_error()?;
@@ -607,7 +608,7 @@ impl<'a> SceneRenderer<'a> {
                 .chunks_exact(8)
                 .map(|texel| {
                     std::array::from_fn(|i| {
-                        f16_bits_to_f32(u16::from_ne_bytes([texel[2 * i], texel[2 * i + 1]]))
+                        half::f16::from_ne_bytes([texel[2 * i], texel[2 * i + 1]]).to_f32()
                     })
                 })
                 .collect(),
@@ -632,7 +633,7 @@ impl<'a> SceneRenderer<'a> {
             ms_per_frame =
                 Some(start.elapsed().as_secs_f64() * 1e3 / f64::from(settings.timed_frames));
         }
-        if let Some(error) = block_on(scope.pop()) {
+        if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(HeadlessError::Gpu(error.to_string()));
         }
         device.uncaptured_error()?;

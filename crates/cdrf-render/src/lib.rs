@@ -124,16 +124,19 @@
 //! table without what it already holds through the osculating sphere. For a material with a
 //! profile it replaces T(d, μ), and the penumbra of its near field is the cut's width.
 
+mod constants;
+mod draw_buffer;
 mod error;
 mod frame;
+mod frame_uniforms;
 mod gpu_data;
 mod gpu_types;
 pub mod headless;
-mod interreflection;
+mod ids;
 mod material;
 mod mesh;
-mod non_local;
 pub mod offscreen;
+mod passes;
 mod pipelines;
 pub mod readback;
 mod renderer;
@@ -144,14 +147,15 @@ mod target;
 pub use cdrf_core::environment::{Environment, ShCoefficients};
 pub use cdrf_core::light::{DirectionalLight, Incidence, Light, NonLocal, PointLight, SpotLight};
 pub use cdrf_core::specular::SpecularLayer;
+pub use constants::{ENVIRONMENT_SH_ORDER, MAX_LIGHTS, MAX_SHADOW_LIGHTS};
 pub use error::{MaterialError, MeshUploadError, PrepareError, SurfaceError, TargetError};
 pub use frame::{Draw, FrameDesc, MAX_EXPOSURE, ToCamera, View};
-pub use material::{MaterialDesc, MaterialId};
-pub use mesh::{MeshDesc, MeshId};
+pub use ids::{MaterialId, MeshId, SurfaceId};
+pub use material::MaterialDesc;
+pub use mesh::MeshDesc;
 pub use offscreen::OffscreenTarget;
 pub use renderer::Renderer;
-pub use shaders::{ENVIRONMENT_SH_ORDER, MAX_LIGHTS, MAX_SHADOW_LIGHTS};
-pub use surface::{SurfaceDesc, SurfaceId, SurfaceRoughness};
+pub use surface::{SurfaceDesc, SurfaceRoughness};
 pub use target::{GaussianEvaluation, LutFiltering, Options, TargetDesc};
 /// The wgpu this crate is built against (use it to avoid version mismatches).
 pub use wgpu;

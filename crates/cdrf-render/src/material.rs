@@ -5,21 +5,19 @@ use cdrf_core::environment::ZonalTable;
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::glam::Vec3;
 use cdrf_core::specular::SpecularLayer;
-use cdrf_core::{Cdrf, CdrfLut, CurvatureAxis, ShadingModel, ViewCorrection};
+use cdrf_core::subsurface::SubsurfaceTables;
+use cdrf_core::translucency::penumbra_tap_weights;
+use cdrf_core::{CdrfLut, CurvatureAxis, ShadingModel, ViewCorrection};
 use wgpu::util::DeviceExt;
 
-use crate::error::MaterialError;
-use crate::gpu_data::rgba16f_texels;
-use crate::gpu_types::{GpuMaterial, GpuPenumbraTap, SHADING_STAGES, uniform_layout_entry};
-use crate::shaders::{
+use crate::constants::{
     ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_ORDER, ENVIRONMENT_ZONAL_ROWS, Model, PENUMBRA_TAPS,
     SUBSURFACE_KERNEL_SAMPLES,
 };
+use crate::error::MaterialError;
+use crate::gpu_data::rgba16f_texels;
+use crate::gpu_types::{GpuMaterial, GpuPenumbraTap, SHADING_STAGES, uniform_layout_entry};
 use crate::target::{GaussianEvaluation, Options};
-
-/// A material uploaded with [`Renderer::create_material`](crate::Renderer::create_material).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct MaterialId(pub(crate) u64);
 
 /// How a material shades: the shading model and its data.
 #[derive(Clone, Copy, Debug)]
@@ -97,25 +95,6 @@ fn environment_zonal_table(
             ),
         },
     })
-}
-
-/// The albedo a table's flattest row implies: `∫₀^π f(κ_min, θ) dθ`. A CDRF blurs `cos⁺θ`
-/// along the great circle with a kernel of unit mass, which keeps `∫₋π^π f dθ = 2 · albedo`
-/// (see `cdrf_core::gaussian`), so this is the flat surface's total diffuse reflectance — which
-/// f(κ, 0) itself is not on a curved row: the light that enters beside the point arrives at a
-/// lower cosine.
-fn flat_albedo(lut: &CdrfLut) -> [f32; 3] {
-    const STEPS: usize = 720;
-    let kappa = lut.curvature_axis().min_per_mm;
-    let mut sum = [0.0_f64; 3];
-    for i in 0..STEPS {
-        let theta = (i as f32 + 0.5) / STEPS as f32 * std::f32::consts::PI;
-        let f = lut.reflectance(kappa, theta);
-        for c in 0..3 {
-            sum[c] += f64::from(f[c]);
-        }
-    }
-    sum.map(|s| (s * std::f64::consts::PI / STEPS as f64) as f32)
 }
 
 /// A material's model and bind group (group 1).
@@ -241,7 +220,7 @@ impl MaterialFactory {
                 if let Some(profile) = lut.diffusion_profile() {
                     let far = FarField::new(profile, f64::from(options.subsurface_cut_mm));
                     if !far.is_empty() {
-                        let tables = SubsurfaceTables::new(&far, lut);
+                        let tables = SubsurfaceTables::new(&far, lut, SUBSURFACE_KERNEL_SAMPLES);
                         uniforms.subsurface_reach_mm = tables.reach_mm;
                         uniforms.subsurface_cut_mm = far.cut_mm() as f32;
                         uniforms.subsurface_entry_cosine_power = far.entry_cosine_power() as f32;
@@ -368,8 +347,8 @@ impl MaterialFactory {
                 device,
                 queue,
                 "cdrf subsurface gain",
-                tables.sphere_columns,
-                tables.sphere_rows,
+                tables.columns,
+                tables.rows,
                 &tables.gain,
             )?,
             None => self.upload_table(
@@ -436,7 +415,7 @@ impl MaterialFactory {
             ],
         });
         let matched_albedo = match *desc {
-            MaterialDesc::Measured { lut } => flat_albedo(lut),
+            MaterialDesc::Measured { lut } => lut.flat_albedo(),
             MaterialDesc::Gaussian { model, .. } => model.scale(),
             MaterialDesc::Lambert { albedo } => albedo,
             MaterialDesc::Curvature { .. } => [1.0; 3],
@@ -490,107 +469,6 @@ impl MaterialFactory {
     }
 }
 
-/// The subsurface gather's tables of one material (see the shader's header).
-struct SubsurfaceTables {
-    /// R_far at d = reach · (i / (samples − 1))², mm⁻².
-    kernel: Vec<Vec3>,
-    reach_mm: f32,
-    /// The table's near field f − F_sphere on the LUT's axes (θ columns, κ rows): what the
-    /// shader reads in f's place with the gather (one read instead of two per pixel).
-    near: Vec<Vec3>,
-    /// s(κ, θ), on the same axes: the table over F_sphere at max(θ, [`Self::GAIN_FROM_THETA_DEG`]).
-    gain: Vec<Vec3>,
-    sphere_columns: usize,
-    sphere_rows: usize,
-}
-
-impl SubsurfaceTables {
-    /// Past this many of its longest length R_far is below e⁻¹² of its start.
-    const REACH_LENGTHS: f64 = 12.0;
-
-    /// The gain is read on the shadow side, where the table's near field has died out (the
-    /// profile's own near part is below 3 % of its far field past 100°).
-    const GAIN_FROM_THETA_DEG: f32 = 100.0;
-    /// Bounds on the gain: where F_sphere and the table both fade (deep shadow of a large sphere)
-    /// their ratio is the table's noise.
-    const GAIN_RANGE: [f32; 2] = [0.25, 4.0];
-
-    /// s(κ, θ) = f(κ, θ′) / F_sphere(κ, θ′), θ′ = max(θ, 100°), per channel: how much more
-    /// (or less) the measured sphere glows in its shadow than the profile's far field says.
-    fn gain(lut: &CdrfLut, sphere: &[Vec3], columns: usize) -> Vec<Vec3> {
-        let from = (0..columns)
-            .find(|&c| {
-                cdrf_core::lut::theta_rad_at(c, columns) >= Self::GAIN_FROM_THETA_DEG.to_radians()
-            })
-            .unwrap_or(columns.saturating_sub(1));
-        let [low, high] = Self::GAIN_RANGE;
-        let mut gain = Vec::with_capacity(sphere.len());
-        for (row, far_row) in sphere.chunks(columns.max(1)).enumerate() {
-            let measured = lut.row(row);
-            for column in 0..columns {
-                let at = column.max(from);
-                let (f, far) = (measured[at], far_row[at]);
-                gain.push(Vec3::from_array(std::array::from_fn(|c| {
-                    if far[c] > 1e-6 {
-                        (f[c] / far[c]).clamp(low, high)
-                    } else {
-                        1.0
-                    }
-                })));
-            }
-        }
-        gain
-    }
-
-    fn new(far: &FarField, lut: &CdrfLut) -> Self {
-        let reach_mm = Self::REACH_LENGTHS * far.longest_mm().max(far.cut_mm());
-        let last = (SUBSURFACE_KERNEL_SAMPLES - 1) as f64;
-        let kernel = (0..SUBSURFACE_KERNEL_SAMPLES)
-            .map(|i| {
-                let u = i as f64 / last;
-                let r = far.reflectance_per_mm2(reach_mm * u * u);
-                Vec3::new(r[0] as f32, r[1] as f32, r[2] as f32)
-            })
-            .collect();
-        let axis = lut.curvature_axis();
-        let (columns, rows) = (lut.theta_count(), axis.count);
-        let mut sphere = vec![Vec3::ZERO; columns * rows];
-        // A few milliseconds per row: spread the rows over the cores.
-        let threads = std::thread::available_parallelism()
-            .map_or(1, |n| n.get())
-            .min(rows.max(1));
-        let rows_per_thread = rows.div_ceil(threads.max(1)).max(1);
-        std::thread::scope(|scope| {
-            for (chunk_index, chunk) in sphere.chunks_mut(rows_per_thread * columns).enumerate() {
-                scope.spawn(move || {
-                    let mut scratch = Vec::new();
-                    for (i, value) in chunk.iter_mut().enumerate() {
-                        let row = chunk_index * rows_per_thread + i / columns;
-                        let theta = f64::from(cdrf_core::lut::theta_rad_at(i % columns, columns));
-                        let kappa = f64::from(axis.curvature_per_mm(row));
-                        let f = far.sphere_reflectance(kappa, theta, &mut scratch);
-                        *value = Vec3::new(f[0] as f32, f[1] as f32, f[2] as f32);
-                    }
-                });
-            }
-        });
-        let gain = Self::gain(lut, &sphere, columns);
-        let near = (0..rows)
-            .flat_map(|row| lut.row(row).iter().take(columns))
-            .zip(&sphere)
-            .map(|(f, far)| *f - *far)
-            .collect();
-        Self {
-            kernel,
-            reach_mm: reach_mm as f32,
-            near,
-            gain,
-            sphere_columns: columns,
-            sphere_rows: rows,
-        }
-    }
-}
-
 /// The Gaussian CDRF as a table (a few milliseconds), on the axes [`Options`] gives.
 fn tabulate_gaussian(model: &GaussianCdrf, options: &Options) -> Result<CdrfLut, MaterialError> {
     let axis = CurvatureAxis {
@@ -617,67 +495,9 @@ fn check_finite_non_negative(what: &'static str, values: &[f32]) -> Result<(), M
     }
 }
 
-/// The Gaussian weight per channel of each penumbra tap: tap k lies at radius
-/// `2·σ_max·√(k / PENUMBRA_TAPS)` on the surface (a Vogel spiral, see the shader).
-fn penumbra_taps(sigma_mm: Vec3) -> [GpuPenumbraTap; PENUMBRA_TAPS] {
-    let sigma_max = sigma_mm.max_element();
-    std::array::from_fn(|k| {
-        let weight = if sigma_max <= 0.0 {
-            Vec3::ONE
-        } else {
-            let radius_squared = 4.0 * sigma_max * sigma_max * k as f32 / PENUMBRA_TAPS as f32;
-            Vec3::from_array(
-                sigma_mm
-                    .to_array()
-                    .map(|sigma| (-0.5 * radius_squared / (sigma * sigma).max(1e-12)).exp()),
-            )
-        };
-        GpuPenumbraTap { weight, _pad0: 0.0 }
-    })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The gain is the table over F_sphere per channel on the shadow side, held at its 100°
-    /// value toward the lit side, bounded, and 1 where F_sphere vanishes.
-    #[test]
-    fn subsurface_gain_is_the_shadow_side_ratio() {
-        let columns = 181; // 1° per column
-        let axis = CurvatureAxis {
-            min_per_mm: 0.02,
-            max_per_mm: 0.06,
-            count: 2,
-        };
-        let mut radiance = Vec::new();
-        let mut sphere = Vec::new();
-        for row in 0..2 {
-            for column in 0..columns {
-                let far = if row == 1 && column >= 150 {
-                    Vec3::ZERO
-                } else {
-                    Vec3::new(0.1, 0.2, 0.01) * (1.0 + column as f32 / 100.0)
-                };
-                // Red 1.5 × F, green 0.9 × F, blue 10 × F (bounded to 4).
-                radiance.push(far * Vec3::new(1.5 + 0.001 * column as f32, 0.9, 10.0));
-                sphere.push(far);
-            }
-        }
-        let lut = CdrfLut::new(axis, columns, radiance).unwrap();
-        let gain = SubsurfaceTables::gain(&lut, &sphere, columns);
-        assert_eq!(gain.len(), sphere.len());
-        let at = |row: usize, column: usize| gain[row * columns + column];
-        let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 1e-5;
-        // Past 100° the ratio of its own column; before, the 100° column's.
-        assert!(
-            close(at(0, 120), Vec3::new(1.62, 0.9, 4.0)),
-            "{}",
-            at(0, 120)
-        );
-        assert!(close(at(0, 30), Vec3::new(1.6, 0.9, 4.0)), "{}", at(0, 30));
-        assert!(close(at(0, 100), at(0, 0)));
-        // No far field: no gain.
-        assert!(close(at(1, 160), Vec3::ONE), "{}", at(1, 160));
-    }
+/// Each penumbra tap's Gaussian weight per channel (see
+/// [`penumbra_tap_weights`](cdrf_core::translucency::penumbra_tap_weights)).
+fn penumbra_taps(scattering_length_mm: Vec3) -> [GpuPenumbraTap; PENUMBRA_TAPS] {
+    penumbra_tap_weights::<PENUMBRA_TAPS>(scattering_length_mm)
+        .map(|weight| GpuPenumbraTap { weight, _pad0: 0.0 })
 }

@@ -2,16 +2,12 @@
 
 use cdrf_core::Mesh;
 use cdrf_core::glam::{Vec2, Vec3, Vec4};
+use cdrf_core::patches::SurfacePatches;
 use wgpu::util::DeviceExt;
 
 use crate::error::MeshUploadError;
-use crate::gpu_types::GpuVertex;
-use crate::interreflection::GpuPatches;
+use crate::gpu_types::{GpuPatch, GpuPatchMember, GpuVertex};
 use crate::pipelines::runs_vertex_terms;
-
-/// A mesh uploaded with [`Renderer::create_mesh`](crate::Renderer::create_mesh).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct MeshId(pub(crate) u64);
 
 /// A mesh to upload, as slices of the host's own vertex data: triangles with per-vertex
 /// normals and mean curvature, and for textured drawing UVs and tangents.
@@ -199,6 +195,69 @@ impl GpuMesh {
             patches: runs_vertex_terms(&device.limits())
                 .then(|| GpuPatches::upload(device, desc, patch_count))
                 .flatten(),
+        })
+    }
+}
+
+/// A mesh's patches on the GPU: the inter-reflection's emitters and receivers, cut once when
+/// the mesh is uploaded.
+pub(crate) struct GpuPatches {
+    pub(crate) patches: wgpu::Buffer,
+    pub(crate) members: wgpu::Buffer,
+    pub(crate) count: u32,
+}
+
+impl GpuPatches {
+    /// Cuts the mesh into about `target_count` patches and uploads them; `None` when it has
+    /// none (a mesh without area, or a count of 0).
+    pub(crate) fn upload(
+        device: &wgpu::Device,
+        desc: &MeshDesc<'_>,
+        target_count: u32,
+    ) -> Option<Self> {
+        let cut = SurfacePatches::build(
+            desc.positions,
+            desc.normals,
+            desc.curvature_per_mm,
+            desc.indices,
+            target_count as usize,
+        );
+        if cut.patches.is_empty() {
+            return None;
+        }
+        let patches: Vec<GpuPatch> = cut
+            .patches
+            .iter()
+            .map(|patch| GpuPatch {
+                centroid: patch.centroid,
+                area: patch.area,
+                normal: patch.normal,
+                sagitta: patch.sagitta,
+                curvature_per_mm: patch.curvature_per_mm,
+                first_member: patch.first_member,
+                member_count: patch.member_count,
+                _pad0: 0,
+            })
+            .collect();
+        let members: Vec<GpuPatchMember> = cut
+            .members
+            .iter()
+            .map(|member| GpuPatchMember {
+                vertex: member.vertex,
+                weight: member.weight,
+            })
+            .collect();
+        let storage = |label, contents: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        Some(Self {
+            patches: storage("cdrf mesh patches", bytemuck::cast_slice(&patches)),
+            members: storage("cdrf mesh patch members", bytemuck::cast_slice(&members)),
+            count: patches.len() as u32,
         })
     }
 }

@@ -5,7 +5,6 @@
 //! into it and samples it in its own pass.
 
 use crate::error::TargetError;
-use crate::gpu_data::block_on;
 use crate::target::TargetDesc;
 
 /// The depth format used when the [`TargetDesc`] names none.
@@ -44,8 +43,8 @@ impl OffscreenTarget {
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let created = Self::new(device, target, width, height);
-        let memory = block_on(memory.pop());
-        let validation = block_on(validation.pop());
+        let memory = pollster::block_on(memory.pop());
+        let validation = pollster::block_on(validation.pop());
         match memory.or(validation) {
             None => Ok(created),
             Some(error) => Err(TargetError::Create {

@@ -7,11 +7,12 @@ use std::collections::HashMap;
 
 use cdrf_core::light::NonLocal;
 
+use crate::constants::{COMPUTE_WORKGROUP_SIZE, Model};
 use crate::error::PrepareError;
-use crate::gpu_data::block_on;
 use crate::gpu_types::{GpuDraw, GpuVertex, GpuVertexTerms, uniform_layout_entry};
-use crate::non_local::SUBSURFACE_FORMAT;
-use crate::shaders::{INTERREFLECTION, LIGHT_VIEW, Model, SHADING, Shader, VERTEX_TERMS};
+use crate::passes::interreflection::InterreflectionPipelines;
+use crate::passes::subsurface_pyramid::SUBSURFACE_FORMAT;
+use crate::shaders::{INTERREFLECTION, LIGHT_VIEW, SHADING, Shader, VERTEX_TERMS};
 use crate::target::{LutFiltering, Options, TargetDesc};
 
 /// The pipeline variants' key: target, shading model, non-local terms.
@@ -26,13 +27,13 @@ pub(crate) fn uses_vertex_terms(model: Model, non_local: NonLocal) -> bool {
         && (non_local.interreflection || (model != Model::Lambert && non_local.light_maps()))
 }
 
-/// Whether a device with these limits runs the vertex terms pass: compute shaders of 64
-/// invocations a group reading the mesh's vertices and writing the terms, and the
-/// inter-reflection's patches and emitters (six storage buffers).
+/// Whether a device with these limits runs the vertex terms pass: compute shaders of
+/// [`COMPUTE_WORKGROUP_SIZE`] invocations a group reading the mesh's vertices and writing the
+/// terms, and the inter-reflection's patches and emitters (six storage buffers).
 pub(crate) fn runs_vertex_terms(limits: &wgpu::Limits) -> bool {
     limits.max_storage_buffers_per_shader_stage >= 6
-        && limits.max_compute_workgroup_size_x >= 64
-        && limits.max_compute_invocations_per_workgroup >= 64
+        && limits.max_compute_workgroup_size_x >= COMPUTE_WORKGROUP_SIZE
+        && limits.max_compute_invocations_per_workgroup >= COMPUTE_WORKGROUP_SIZE
 }
 
 /// The shader modules, their layouts and the pipelines built from them.
@@ -50,7 +51,7 @@ pub(crate) struct Pipelines {
     /// storage buffers.
     compute: Option<ComputeShaders>,
     cache: HashMap<PipelineKey, wgpu::RenderPipeline>,
-    terms_cache: HashMap<(Model, NonLocal), TermsPipelines>,
+    compute_cache: HashMap<(Model, NonLocal), ComputePipelines>,
     subsurface_map: Option<wgpu::RenderPipeline>,
 }
 
@@ -66,13 +67,12 @@ struct ComputeShaders {
     interreflection: wgpu::ShaderModule,
 }
 
-/// The compute passes of a shading model and its non-local terms.
-pub(crate) struct TermsPipelines {
-    /// `cs_vertex_terms`.
+/// The compute passes' pipelines of a shading model and its non-local terms.
+pub(crate) struct ComputePipelines {
+    /// `cs_vertex_terms`: each vertex's non-local terms of the direct light.
     pub(crate) vertex_terms: wgpu::ComputePipeline,
-    /// With the inter-reflection: `cs_patch_emitters`, `cs_emitter_bounce` and
-    /// `cs_vertex_interreflection`.
-    pub(crate) interreflection: Option<[wgpu::ComputePipeline; 3]>,
+    /// With the inter-reflection, its stages.
+    pub(crate) interreflection: Option<InterreflectionPipelines>,
 }
 
 impl Pipelines {
@@ -143,7 +143,7 @@ impl Pipelines {
             compute,
             shader_error,
             layout,
-            terms_cache: HashMap::new(),
+            compute_cache: HashMap::new(),
             cache: HashMap::new(),
             subsurface_map: None,
         }
@@ -171,12 +171,8 @@ impl Pipelines {
     }
 
     /// The compute passes' pipelines of a shading model and its non-local terms, if built.
-    pub(crate) fn vertex_terms(
-        &self,
-        model: Model,
-        non_local: NonLocal,
-    ) -> Option<&TermsPipelines> {
-        self.terms_cache.get(&(model, non_local))
+    pub(crate) fn compute(&self, model: Model, non_local: NonLocal) -> Option<&ComputePipelines> {
+        self.compute_cache.get(&(model, non_local))
     }
 
     /// Builds the pipeline of a variant unless cached, and the vertex terms pass's pipeline
@@ -233,7 +229,7 @@ impl Pipelines {
         let terms_shaders = self
             .compute
             .as_ref()
-            .filter(|_| terms && !self.terms_cache.contains_key(&(model, non_local)));
+            .filter(|_| terms && !self.compute_cache.contains_key(&(model, non_local)));
         let terms_pipeline = terms_shaders.map(|shaders| {
             let compute = |label, module, entry_point| {
                 device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -246,30 +242,16 @@ impl Pipelines {
                 })
             };
             let interreflection = &shaders.interreflection;
-            TermsPipelines {
+            ComputePipelines {
                 vertex_terms: compute(
                     "cdrf vertex terms pipeline",
                     &shaders.vertex_terms,
                     "cs_vertex_terms",
                 ),
                 interreflection: non_local.interreflection.then(|| {
-                    [
-                        compute(
-                            "cdrf patch emitters pipeline",
-                            interreflection,
-                            "cs_patch_emitters",
-                        ),
-                        compute(
-                            "cdrf emitter bounce pipeline",
-                            interreflection,
-                            "cs_emitter_bounce",
-                        ),
-                        compute(
-                            "cdrf vertex interreflection pipeline",
-                            interreflection,
-                            "cs_vertex_interreflection",
-                        ),
-                    ]
+                    InterreflectionPipelines::new(|label, entry_point| {
+                        compute(label, interreflection, entry_point)
+                    })
                 }),
             }
         });
@@ -312,7 +294,7 @@ impl Pipelines {
             multiview_mask: None,
             cache: None,
         });
-        if let Some(error) = block_on(scope.pop()) {
+        if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(PrepareError::Pipeline {
                 target,
                 message: error.to_string(),
@@ -320,7 +302,8 @@ impl Pipelines {
         }
         self.cache.insert(key, pipeline);
         if let Some(terms_pipeline) = terms_pipeline {
-            self.terms_cache.insert((model, non_local), terms_pipeline);
+            self.compute_cache
+                .insert((model, non_local), terms_pipeline);
         }
         Ok(())
     }
@@ -417,7 +400,7 @@ impl Pipelines {
             multiview_mask: None,
             cache: None,
         });
-        if let Some(error) = block_on(scope.pop()) {
+        if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(PrepareError::Pipeline {
                 target: target_desc(targets),
                 message: error.to_string(),

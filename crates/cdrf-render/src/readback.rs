@@ -119,8 +119,8 @@ impl TextureReadback {
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
             mapped_at_creation: false,
         });
-        let memory = crate::gpu_data::block_on(memory.pop());
-        let validation = crate::gpu_data::block_on(validation.pop());
+        let memory = pollster::block_on(memory.pop());
+        let validation = pollster::block_on(validation.pop());
         if let Some(error) = memory.or(validation) {
             return Err(ReadbackError::Allocate {
                 width,

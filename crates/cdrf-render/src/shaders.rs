@@ -1,5 +1,5 @@
 //! The WGSL of the passes, composed from the files in this crate's `shaders/` folder and the
-//! constants both sides share, which are defined here once and written into the WGSL.
+//! constants both sides share (defined once in `constants`), written into the WGSL.
 //!
 //! Each shader module is [`wgsl_constants`] followed by its [`Shader::parts`] in order:
 //! `common.wgsl`, then types, bindings and functions by topic, and last the pass's own file
@@ -11,83 +11,13 @@ use std::fmt;
 use std::mem::offset_of;
 use std::ops::Range;
 
-use cdrf_core::ShadingModel;
-
-use crate::gpu_data::block_on;
+use crate::constants::{
+    COMPUTE_WORKGROUP_SIZE, ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_COEFFICIENTS,
+    ENVIRONMENT_ZONAL_ROWS, GPU_LIGHT_DIRECTIONAL, GPU_LIGHT_POINT, GPU_LIGHT_SPOT,
+    GPU_SHADOW_ORTHOGRAPHIC, GPU_SHADOW_PERSPECTIVE, MAX_LIGHTS, MAX_SHADOW_FACES,
+    MAX_SHADOW_LIGHTS, Model, PENUMBRA_TAPS, SUBSURFACE_KERNEL_SAMPLES,
+};
 use crate::gpu_types::GpuVertex;
-use crate::target::GaussianEvaluation;
-
-/// Most lights in one frame.
-pub const MAX_LIGHTS: usize = 16;
-/// Lights with a shadow map: the first four of a frame, directional lights first (an
-/// orthographic map each; point and spot lights a perspective map, or a cube of six when the
-/// light is among the draws). Later ones shade with the local model only. Each has a slot of
-/// the shading pass's per-vertex terms, written out by hand in `shading_pass.wgsl` (stage
-/// inputs and outputs hold no arrays); `src/gpu_types.rs` and `tests/shaders.rs` hold the
-/// slots to this constant.
-pub const MAX_SHADOW_LIGHTS: usize = 4;
-/// Faces of a shadowed light's map at most (a cube).
-pub(crate) const MAX_SHADOW_FACES: usize = 6;
-/// Penumbra taps per shadowed light: the centre and a Vogel spiral out to 2σ, the same spiral
-/// at every vertex, every tap read, so the visibility is a continuous function of the point
-/// (interpolating it between vertices cannot blotch). Each tap's lit-or-not is a step of its
-/// weight: this many keeps the steps from showing as streaks along cast shadows
-/// (`tests/tests/non_local.rs`; `docs/research/shader-notes.md`).
-pub(crate) const PENUMBRA_TAPS: usize = 256;
-/// Samples of the subsurface gather's far-field kernel R_far(d), on a square-root grid in d
-/// (fine where R_far changes fastest).
-pub(crate) const SUBSURFACE_KERNEL_SAMPLES: usize = 128;
-
-/// The spherical-harmonics order of the environment light: bands 0…4, 25 coefficients. The
-/// measured table's rows are flatter than cos θ near the normal, which order 2 (the classic
-/// irradiance map's 9) misses by up to 20 % of the brightest radiance under a sun; order 4
-/// keeps it under 4 % (`crates/cdrf-core/tests/environment.rs`).
-pub const ENVIRONMENT_SH_ORDER: usize = 4;
-pub(crate) const ENVIRONMENT_SH_BANDS: usize = ENVIRONMENT_SH_ORDER + 1;
-pub(crate) const ENVIRONMENT_SH_COEFFICIENTS: usize = ENVIRONMENT_SH_BANDS * ENVIRONMENT_SH_BANDS;
-/// Rows of a material's zonal table a_l(κ), uniform in κ over its table's curvature axis.
-pub(crate) const ENVIRONMENT_ZONAL_ROWS: usize = 64;
-
-/// `Light.kind` in the WGSL.
-pub(crate) const GPU_LIGHT_DIRECTIONAL: u32 = 0;
-pub(crate) const GPU_LIGHT_POINT: u32 = 1;
-pub(crate) const GPU_LIGHT_SPOT: u32 = 2;
-
-/// `ShadowLight.projection` in the WGSL.
-pub(crate) const GPU_SHADOW_ORTHOGRAPHIC: u32 = 0;
-pub(crate) const GPU_SHADOW_PERSPECTIVE: u32 = 1;
-
-/// The shader's code path for a material (its `MODEL` override and `MODEL_*` constants): the
-/// [`ShadingModel`], with the Gaussian's split by [`GaussianEvaluation`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub(crate) enum Model {
-    Measured = 0,
-    GaussianLut = 1,
-    GaussianAnalytic = 2,
-    Lambert = 3,
-    Curvature = 4,
-}
-
-impl Model {
-    /// The code path that shades `model`, the Gaussian CDRF as `gaussian` says.
-    pub(crate) fn new(model: ShadingModel, gaussian: GaussianEvaluation) -> Self {
-        match (model, gaussian) {
-            (ShadingModel::Measured, _) => Self::Measured,
-            (ShadingModel::Gaussian, GaussianEvaluation::Lut) => Self::GaussianLut,
-            (ShadingModel::Gaussian, GaussianEvaluation::Analytic) => Self::GaussianAnalytic,
-            (ShadingModel::Lambert, _) => Self::Lambert,
-            (ShadingModel::Curvature, _) => Self::Curvature,
-        }
-    }
-
-    const ALL: [(Self, &'static str); 5] = [
-        (Self::Measured, "MODEL_MEASURED"),
-        (Self::GaussianLut, "MODEL_GAUSSIAN_LUT"),
-        (Self::GaussianAnalytic, "MODEL_GAUSSIAN_ANALYTIC"),
-        (Self::Lambert, "MODEL_LAMBERT"),
-        (Self::Curvature, "MODEL_CURVATURE"),
-    ];
-}
 
 /// The WGSL declarations of the constants the Rust side defines.
 pub fn wgsl_constants() -> String {
@@ -105,6 +35,7 @@ pub fn wgsl_constants() -> String {
         wgsl.push_str(&format!("const {name}: u32 = {value}u;\n"));
     }
     for (name, value) in [
+        ("COMPUTE_WORKGROUP_SIZE", COMPUTE_WORKGROUP_SIZE),
         ("LIGHT_DIRECTIONAL", GPU_LIGHT_DIRECTIONAL),
         ("LIGHT_POINT", GPU_LIGHT_POINT),
         ("LIGHT_SPOT", GPU_LIGHT_SPOT),
@@ -324,10 +255,10 @@ impl Shader {
             label: Some(self.label),
             source: wgpu::ShaderSource::Wgsl(composed.source().into()),
         });
-        let Some(error) = block_on(scope.pop()) else {
+        let Some(error) = pollster::block_on(scope.pop()) else {
             return (module, Ok(()));
         };
-        let info = block_on(module.get_compilation_info());
+        let info = pollster::block_on(module.get_compilation_info());
         let mut reports: Vec<String> = info
             .messages
             .iter()

@@ -34,10 +34,6 @@ use wgpu::util::DeviceExt;
 
 use crate::error::SurfaceError;
 
-/// A surface uploaded with [`Renderer::create_surface`](crate::Renderer::create_surface).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct SurfaceId(pub(crate) u64);
-
 /// The specular roughness a surface paints (glTF's metallic-roughness convention).
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceRoughness<'a> {
