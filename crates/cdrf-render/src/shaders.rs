@@ -90,7 +90,7 @@ macro_rules! part {
 
 /// The parts, one per file; what each holds is in its header and `docs/shading.md`.
 mod part {
-    use super::Part;
+    use crate::shaders::Part;
 
     pub(super) const COMMON: Part = part!("common.wgsl");
     pub(super) const MATHS: Part = part!("maths.wgsl");
