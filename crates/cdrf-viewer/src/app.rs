@@ -700,7 +700,12 @@ impl ViewerApp {
     fn messages_bar(&mut self, ui: &mut egui::Ui) {
         ui.horizontal(|ui| {
             ui.heading("cdrf viewer");
-            ui.label(RichText::new("measured vs Gaussian curvature-dependent reflectance").weak());
+            ui.label(
+                RichText::new(
+                    "translucency from a measured curvature-dependent reflectance function",
+                )
+                .weak(),
+            );
         });
         if let Some(error) = self.error.clone() {
             ui.horizontal(|ui| {
