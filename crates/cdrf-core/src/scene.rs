@@ -512,6 +512,13 @@ pub const MAX_IMAGE_SIDE: u32 = 16384;
 /// a setting.
 pub const MAX_EXPOSURE: f32 = 1.0e6;
 
+/// Why `exposure` cannot be an exposure (it must be > 0 and at most [`MAX_EXPOSURE`]), or
+/// `None`: the one check of the scene file's key and the render command's flag.
+pub fn exposure_problem(exposure: f32) -> Option<String> {
+    (!(exposure > 0.0 && exposure <= MAX_EXPOSURE))
+        .then(|| format!("{exposure}: must be > 0 and at most {MAX_EXPOSURE}"))
+}
+
 /// Every key the parser accepts, as `[table] key` (`[[light]]` for the light tables); a test
 /// holds it against the parser, and `docs/scene-file.md` documents each one.
 pub const KEYS: &[&str] = &[
@@ -740,11 +747,8 @@ impl Scene {
             ));
         }
         let exposure = c.exposure.unwrap_or(1.0);
-        if !(exposure > 0.0 && exposure <= MAX_EXPOSURE) {
-            return Err(invalid(
-                "[camera] exposure",
-                format!("{exposure}: must be > 0 and at most {MAX_EXPOSURE}"),
-            ));
+        if let Some(problem) = exposure_problem(exposure) {
+            return Err(invalid("[camera] exposure", problem));
         }
         let camera = Camera {
             projection,

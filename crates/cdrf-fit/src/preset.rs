@@ -294,6 +294,21 @@ impl Preset {
         std::array::from_fn(|c| self.albedo[c] * d[c])
     }
 
+    /// The table on `settings`' axes and Kubo's Gaussian CDRF fitted to it
+    /// ([`fit_gaussian_to_lut`]): what `cdrf-preset` writes and the viewer's material picker
+    /// shows.
+    ///
+    /// # Errors
+    /// As [`Preset::build_lut`] and [`fit_gaussian_to_lut`].
+    pub fn build_tables(
+        &self,
+        settings: &PresetSettings,
+    ) -> Result<(CdrfLut, GaussianCdrf), PresetError> {
+        let lut = self.build_lut(settings)?;
+        let gaussian = fit_gaussian_to_lut(&lut)?;
+        Ok((lut, gaussian))
+    }
+
     /// The table on `settings`' axes, with g ≡ 1 and provenance naming the preset and medium.
     ///
     /// # Errors
@@ -452,8 +467,7 @@ pub fn write_preset(
             path: out_dir.to_path_buf(),
         });
     }
-    let lut = preset.build_lut(settings)?;
-    let gaussian = fit_gaussian_to_lut(&lut)?;
+    let (lut, gaussian) = preset.build_tables(settings)?;
     let parameters = GaussianParameters {
         sigma_mm: gaussian.sigma_mm(),
         scale: gaussian.scale(),

@@ -11,14 +11,14 @@ use cdrf_core::glam::{Mat3, Mat4, Vec2, Vec3};
 use cdrf_core::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
 use cdrf_core::specular::{DEFAULT_IOR, DEFAULT_ROUGHNESS_ALPHA, SpecularLayer};
 use cdrf_core::{Cdrf, Filter, ShadingModel};
-use cdrf_fit::preset::{Preset, PresetSettings, fit_gaussian_to_lut, preset_names};
+use cdrf_fit::preset::{Preset, PresetSettings, preset_names};
 use cdrf_render::{
     ENVIRONMENT_SH_ORDER, MaterialDesc, MaterialId, MeshDesc, MeshId, SurfaceDesc, SurfaceId,
 };
 use egui::{Color32, RichText};
 
 use crate::assets::{
-    Asset, LoadedEnvironment, LoadedGaussian, LoadedLut, LoadedMesh, StartupFiles,
+    Asset, FIT_LUT_FILE, LoadedEnvironment, LoadedGaussian, LoadedLut, LoadedMesh, StartupFiles,
     bundled_data_dir, load_fit_folder,
 };
 use crate::camera::OrbitCamera;
@@ -249,6 +249,8 @@ pub struct ViewerApp {
     error: Option<String>,
     status: Option<String>,
     lut_image: Option<egui::TextureHandle>,
+    /// The material picker's name of the loaded table (set with it).
+    material: String,
     frame_times: FrameTimes,
     gaussian_table_ms: Option<f64>,
     dragging_split: bool,
@@ -329,6 +331,7 @@ impl ViewerApp {
             error: None,
             status: None,
             lut_image: None,
+            material: "—".to_owned(),
             frame_times: FrameTimes::default(),
             gaussian_table_ms: None,
             dragging_split: false,
@@ -530,6 +533,7 @@ impl ViewerApp {
             None => {}
         }
         self.lut_image = None;
+        self.material = material_name(&lut.path);
         self.lut = Some(lut);
         self.refresh_lambert_material();
     }
@@ -979,10 +983,7 @@ impl ViewerApp {
     /// Picks the measured table: the bundled fit, or a preset medium (cdrf-preset's tables,
     /// computed on first use).
     fn material_picker(&mut self, ui: &mut egui::Ui) {
-        let current = self
-            .lut
-            .as_ref()
-            .map_or("—".to_owned(), |lut| material_name(&lut.path));
+        let current = self.material.clone();
         let mut picked: Option<String> = None;
         egui::ComboBox::from_label("material")
             .selected_text(current.clone())
@@ -1005,11 +1006,8 @@ impl ViewerApp {
             self.open(&bundled_data_dir().join("wax-fit"));
             return;
         }
-        let made = Preset::named(name).and_then(|preset| {
-            let lut = preset.build_lut(&PresetSettings::default())?;
-            let gaussian = fit_gaussian_to_lut(&lut)?;
-            Ok((lut, gaussian))
-        });
+        let made =
+            Preset::named(name).and_then(|preset| preset.build_tables(&PresetSettings::default()));
         match made {
             Ok((lut, gaussian)) => {
                 let path = PathBuf::from(format!("{PRESET_PREFIX}{name}"));
@@ -1443,15 +1441,17 @@ const BUNDLED_MATERIAL: &str = "wax (bundled fit)";
 /// What a preset's "path" starts with (it has no file).
 const PRESET_PREFIX: &str = "preset: ";
 
-/// The material picker's name of a loaded table.
+/// The material picker's name of a table loaded from `path`: the bundled fit's table (however
+/// its path is spelt), a preset, or the file's name.
 fn material_name(path: &Path) -> String {
     let text = path.to_string_lossy();
-    match text.strip_prefix(PRESET_PREFIX) {
-        Some(name) => name.to_owned(),
-        None if path.parent().and_then(Path::file_name) == Some("wax-fit".as_ref()) => {
-            BUNDLED_MATERIAL.to_owned()
-        }
-        None => file_name(path),
+    if let Some(name) = text.strip_prefix(PRESET_PREFIX) {
+        return name.to_owned();
+    }
+    let bundled = bundled_data_dir().join("wax-fit").join(FIT_LUT_FILE);
+    match (path.canonicalize(), bundled.canonicalize()) {
+        (Ok(path), Ok(bundled)) if path == bundled => BUNDLED_MATERIAL.to_owned(),
+        _ => file_name(path),
     }
 }
 

@@ -179,11 +179,8 @@ fn render(args: &RenderArgs) -> anyhow::Result<()> {
     }
     let mut scene = Scene::load(&args.render_scene)?;
     if let Some(exposure) = args.exposure {
-        if !(exposure > 0.0 && exposure <= cdrf_core::scene::MAX_EXPOSURE) {
-            bail!(
-                "--exposure {exposure}: must be > 0 and at most {}",
-                cdrf_core::scene::MAX_EXPOSURE
-            );
+        if let Some(problem) = cdrf_core::scene::exposure_problem(exposure) {
+            bail!("--exposure {problem}");
         }
         scene.camera.exposure = exposure;
     }
