@@ -33,6 +33,7 @@ pub mod image_io;
 pub mod outputs;
 pub mod plot;
 pub mod preset;
+pub mod simulation;
 pub mod sphere;
 pub mod table;
 pub mod transmission;
