@@ -10,6 +10,8 @@
 //!
 //! Without photographs, [`preset`] makes the same two files the renderer reads (`measured.exr`,
 //! `gaussian.toml`) from a named medium or scattering coefficients (the `cdrf-preset` binary).
+//! [`simulation`] makes virtual photographs of spheres of a scattering medium, such as the named
+//! ones of [`media`], which the preset fits as photographs.
 //!
 //! ```
 //! use cdrf_fit::dataset::Dataset;
@@ -30,6 +32,7 @@ pub mod evaluate;
 pub mod fit;
 pub mod gaussian_fit;
 pub mod image_io;
+pub mod media;
 pub mod outputs;
 pub mod plot;
 pub mod preset;

@@ -1,11 +1,22 @@
 //! Material presets without photographs: a CDRF table and a Gaussian CDRF from a named medium
 //! or from scattering coefficients, the two files `cdrf-fit` writes and the renderer reads.
 //!
-//! A preset pre-integrates a radial diffusion profile over the ring through the normal and the
-//! light (Penner & Borshukov 2011; [`PreintegratedCdrf`]), for the dipole of Jensen et al.
-//! (2001) with a medium's reduced scattering σs′ and absorption σa, or for d'Eon & Luebke's
-//! sum-of-Gaussians skin. `cdrf-preset NAME --out DIR` writes the result as
-//! [`MEASURED_LUT`] and [`GAUSSIAN`] ([`write_preset`]).
+//! Two models make the table:
+//! - **Simulated spheres** (the default, [`Preset::simulate`]): [`crate::simulation`] renders
+//!   the spheres a technical artist would have photographed (Monte Carlo light transport in
+//!   the medium, radii 15 … 50 mm) and the unchanged fit turns them into a table
+//!   ([`simulated`]). The result is a full measured table: view correction, transmission and
+//!   diffusion profile, so every render mode works with it. It costs up to a minute; a
+//!   [`cache::PresetCache`] makes asking again free.
+//! - **The dipole** ([`Preset::build_lut`], `--model dipole`): the radial diffusion profile
+//!   pre-integrated over the ring through the normal and the light (Penner & Borshukov 2011;
+//!   [`PreintegratedCdrf`]), for the dipole of Jensen et al. (2001) or d'Eon & Luebke's
+//!   sum-of-Gaussians skin. Instant, for comparison: it has no view correction, no non-local
+//!   data, and on the wax spheres it is 8–13 % off on the lit side and carries a sixth of the
+//!   light past the terminator (docs/presets.md).
+//!
+//! `cdrf-preset NAME --out DIR` writes the result as [`MEASURED_LUT`] and [`GAUSSIAN`]
+//! ([`write_preset`]). The media are [`crate::media::MEDIA`].
 //!
 //! ```
 //! use cdrf_core::lut::Filter;
@@ -13,44 +24,35 @@
 //!
 //! let marble = Preset::named("marble")?; // names are case-insensitive
 //! let lut = marble.build_lut(&PresetSettings { curvature_count: 5, theta_count: 19, ..Default::default() })?;
-//! // A flat surface lit head-on reflects the medium's albedo R_d (π·L/E).
+//! // The dipole's table: a flat surface lit head-on reflects the medium's albedo R_d (π·L/E).
 //! let flat = lut.sample(0.0, 0.0, Filter::Bilinear);
 //! assert!((f64::from(flat.x) - marble.albedo()[0]).abs() < 1e-6);
 //! # Ok::<(), cdrf_fit::preset::PresetError>(())
 //! ```
 //!
-//! # Albedo
+//! # The dipole's albedo
 //! Ring pre-integration divides by the ring integral of the profile: every curve it gives has
-//! unit mass, and a flat surface lit at θ gives exactly `cos θ`, a *white* material. A preset
-//! must carry the medium's colour, so its table is
+//! unit mass, and a flat surface lit at θ gives exactly `cos θ`, a *white* material. The dipole
+//! table therefore is
 //!
 //! ```text
 //! f(κ, θ) = R_d · D(θ, 1/κ)      per RGB channel, π·L/E,
 //! ```
 //!
-//! with `R_d` the total diffuse reflectance of the profile, the fraction of the light entering a
-//! flat slab that leaves it again ([`Preset::albedo`]: for the dipole
+//! with `R_d` the total diffuse reflectance of the profile ([`Preset::albedo`]: for the dipole
 //! [`DipoleProfile::total_diffuse_reflectance`], for d'Eon's skin the sum of the Gaussians'
-//! weights, which d'Eon & Luebke normalise to 1: their skin is white, its colour comes from a
-//! diffuse texture). A flat surface lit head-on then gives `R_d`, and a white Lambertian surface
-//! would give 1. Fresnel transmission at entry and exit (Jensen's `F_t(η, ω)` factors) is left
-//! out: the table is the diffuse term only, as a cross-polarised photograph sees it.
+//! weights, normalised to 1: their skin is white, its colour comes from a diffuse texture).
+//! Fresnel transmission is left out: the table is the diffuse term only, as a cross-polarised
+//! photograph sees it. Its view correction is 1 and it has no non-local data.
 //!
-//! # What a preset cannot know
-//! - **The view correction** g(θ, φ): a measured table divides the dependence on the viewing
-//!   angle φ out of its photographs. A preset has none, so g ≡ 1 (`ViewCorrection::identity`):
-//!   radiance does not change with the view.
-//! - **The measured near field**: the dipole (or the Gaussians) stands for the real
-//!   medium's light transport, which differs most close to the point of entry and on the shadow
-//!   side of small objects. The table has no coverage, translucency or diffusion profile; the
-//!   renderer's non-local terms need a measured `measured.exr`.
-//!
-//! # Axes
+//! # The dipole's axes
 //! Curvature κ from 0 (flat: row 0 is exactly `R_d · cos⁺θ`) to
-//! [`PresetSettings::max_curvature_per_mm`] (default 1 mm⁻¹, spheres down to r = 1 mm; past it
-//! the table clamps, like every LUT), uniform in κ with 257 rows by default (Δκ = 1/256 mm⁻¹, so
-//! the wax spheres' 1/50 … 1/15 mm⁻¹ span a dozen rows); θ over 0 … 180° in 361 columns (0.5°),
-//! the `cdrf-fit` default.
+//! [`PresetSettings::max_curvature_per_mm`] (default 1 mm⁻¹) in 257 rows by default; θ over
+//! 0 … 180° in 361 columns (0.5°). The simulated table's axes are the fit's: the spheres'
+//! curvatures, clamped beyond them, like every measured table.
+
+pub mod cache;
+pub mod simulated;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -65,59 +67,21 @@ use cdrf_core::lut_file::{LutFileError, write_lut};
 use rayon::prelude::*;
 
 use crate::gaussian_fit::best_log_sigma;
+use crate::media::{self, MEDIA};
+use crate::simulation::{ScatteringMedium, SimulationError};
+
+use cache::PresetCache;
+use simulated::{SimulatedFitError, SimulatedSettings, SimulatedSphereReport};
 
 pub use crate::outputs::{GAUSSIAN, MEASURED_LUT};
 
-/// A medium of Jensen et al. (2001), table 2: reduced scattering σs′ and absorption σa, mm⁻¹
-/// per RGB channel, measured at η = [`JENSEN_2001_ETA`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Medium {
-    /// The name as the paper (and pbrt's `SubsurfaceParameterTable`) spells it.
-    pub name: &'static str,
-    /// Reduced scattering coefficient σs′ = σs·(1 − g), mm⁻¹ per RGB channel.
-    pub sigma_s_prime_per_mm: [f32; 3],
-    /// Absorption coefficient σa, mm⁻¹ per RGB channel.
-    pub sigma_a_per_mm: [f32; 3],
-}
-
-/// The relative index of refraction of every medium in [`JENSEN_2001`].
-pub const JENSEN_2001_ETA: f32 = 1.3;
-
-/// Jensen, Marschner, Levoy & Hanrahan, "A Practical Model for Subsurface Light Transport"
-/// (SIGGRAPH 2001), table 2, as pbrt's `SubsurfaceParameterTable` holds it (Spectralon, which
-/// does not absorb, is left out: its dipole has no decay length). The one table of media.
-pub const JENSEN_2001: [Medium; 11] = [
-    medium("Apple", [2.29, 2.39, 1.97], [0.0030, 0.0034, 0.046]),
-    medium("Chicken1", [0.15, 0.21, 0.38], [0.015, 0.077, 0.19]),
-    medium("Chicken2", [0.19, 0.25, 0.32], [0.018, 0.088, 0.20]),
-    medium("Cream", [7.38, 5.47, 3.15], [0.0002, 0.0028, 0.0163]),
-    medium("Ketchup", [0.18, 0.07, 0.03], [0.061, 0.97, 1.45]),
-    medium("Marble", [2.19, 2.62, 3.00], [0.0021, 0.0041, 0.0071]),
-    medium("Potato", [0.68, 0.70, 0.55], [0.0024, 0.0090, 0.12]),
-    medium("Skimmilk", [0.70, 1.22, 1.90], [0.0014, 0.0025, 0.0142]),
-    medium("Skin1", [0.74, 0.88, 1.01], [0.032, 0.17, 0.48]),
-    medium("Skin2", [1.09, 1.59, 1.79], [0.013, 0.070, 0.145]),
-    medium("Wholemilk", [2.55, 3.21, 3.77], [0.0011, 0.0024, 0.014]),
-];
-
-/// The name of d'Eon & Luebke's six-Gaussian skin ([`SumOfGaussiansProfile::skin`]).
+/// d'Eon & Luebke's six-Gaussian skin, the one preset that is a profile and not a medium
+/// (dipole model only).
 pub const DEON_SKIN: &str = "dEonSkin";
 
-const fn medium(
-    name: &'static str,
-    sigma_s_prime_per_mm: [f32; 3],
-    sigma_a_per_mm: [f32; 3],
-) -> Medium {
-    Medium {
-        name,
-        sigma_s_prime_per_mm,
-        sigma_a_per_mm,
-    }
-}
-
-/// Every name [`Preset::named`] accepts, in the order `--list` prints them.
+/// Every preset name: the media of [`MEDIA`] and [`DEON_SKIN`].
 pub fn preset_names() -> Vec<&'static str> {
-    JENSEN_2001
+    MEDIA
         .iter()
         .map(|medium| medium.name)
         .chain([DEON_SKIN])
@@ -160,6 +124,20 @@ pub enum PresetError {
     /// The LUT file could not be written.
     #[error(transparent)]
     LutFile(LutFileError),
+    /// The medium cannot be simulated (coefficients, g or η out of the simulator's range).
+    #[error("{name}: {error}")]
+    NotSimulable {
+        /// The preset.
+        name: String,
+        /// Why.
+        error: SimulationError,
+    },
+    /// d'Eon's skin is a profile, not a medium: only the dipole model makes it.
+    #[error("{0} is a sum of Gaussians, not a scattering medium: use --model dipole")]
+    NoMedium(String),
+    /// Simulating or fitting the spheres failed.
+    #[error(transparent)]
+    Simulated(#[from] SimulatedFitError),
 }
 
 /// The profile behind a preset.
@@ -192,18 +170,20 @@ impl RadialProfile for PresetProfile {
     }
 }
 
-/// A medium ready to tabulate: its profile pre-integrated, scaled by its albedo `R_d` (see the
-/// [module docs](self)). Implements [`Cdrf`] in the LUT convention π·L/E.
+/// A named or custom material: its scattering medium (for the simulated spheres) and its
+/// profile pre-integrated and scaled by its albedo `R_d` (the dipole model; see the
+/// [module docs](self)). Implements [`Cdrf`] in the LUT convention π·L/E by the dipole.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Preset {
     name: String,
     description: String,
+    medium: Result<ScatteringMedium, SimulationError>,
     cdrf: PreintegratedCdrf<PresetProfile>,
     albedo: [f64; 3],
 }
 
 impl Preset {
-    /// A named medium: one of [`JENSEN_2001`] (η = 1.3) or [`DEON_SKIN`], matched without
+    /// A named medium from [`MEDIA`] (with its own η) or [`DEON_SKIN`], matched without
     /// regard to case.
     ///
     /// # Errors
@@ -217,32 +197,76 @@ impl Preset {
                 description: "d'Eon & Luebke (GPU Gems 3, ch. 14) six-Gaussian skin profile, \
                               weights normalised to white"
                     .to_owned(),
+                medium: Err(SimulationError::Settings("not a medium")),
                 cdrf: PreintegratedCdrf::new(PresetProfile::SumOfGaussians(profile)),
                 albedo,
             });
         }
-        let medium = JENSEN_2001
-            .iter()
-            .find(|medium| medium.name.eq_ignore_ascii_case(name))
-            .ok_or_else(|| PresetError::UnknownMedium {
-                name: name.to_owned(),
-            })?;
-        let mut preset = Self::dipole(
-            medium.sigma_s_prime_per_mm,
-            medium.sigma_a_per_mm,
-            JENSEN_2001_ETA,
-        )?;
-        preset.name = medium.name.to_owned();
+        let named = media::find(name).ok_or_else(|| PresetError::UnknownMedium {
+            name: name.to_owned(),
+        })?;
+        let medium = ScatteringMedium::new(
+            named.sigma_s_per_mm,
+            named.sigma_a_per_mm,
+            named.g,
+            named.eta,
+        )
+        .map_err(|error| PresetError::NotSimulable {
+            name: named.name.to_owned(),
+            error,
+        })?;
+        let mut preset = Self::from_medium(medium)?;
+        preset.name = named.name.to_owned();
         preset.description = format!(
-            "Jensen et al. 2001 table 2 \"{}\": {}",
-            medium.name, preset.description
+            "{} \"{}\": {}",
+            named.source, named.name, preset.description
+        );
+        Ok(preset)
+    }
+
+    /// The same medium with another relative index of refraction (`--eta` on a named medium).
+    ///
+    /// # Errors
+    /// When the new η is out of the simulator's or the dipole's range.
+    pub fn with_eta(&self, eta: f64) -> Result<Self, PresetError> {
+        let Ok(medium) = self.medium else {
+            return Err(PresetError::NoMedium(self.name.clone()));
+        };
+        let changed =
+            ScatteringMedium::new(medium.sigma_s_per_mm, medium.sigma_a_per_mm, medium.g, eta)
+                .map_err(|error| PresetError::NotSimulable {
+                    name: self.name.clone(),
+                    error,
+                })?;
+        let mut preset = Self::from_medium(changed)?;
+        preset.name.clone_from(&self.name);
+        preset.description = format!("{} (eta changed to {eta})", self.description);
+        Ok(preset)
+    }
+
+    /// Any medium: scattering σs, absorption σa (mm⁻¹), Henyey–Greenstein g and relative index
+    /// η. Its dipole uses the reduced scattering σs′ = σs·(1 − g).
+    ///
+    /// # Errors
+    /// [`PresetError::Parameter`] when the dipole cannot be built from it.
+    pub fn from_medium(medium: ScatteringMedium) -> Result<Self, PresetError> {
+        let reduced = std::array::from_fn(|c| (medium.sigma_s_per_mm[c] * (1.0 - medium.g)) as f32);
+        let absorption = medium.sigma_a_per_mm.map(|a| a as f32);
+        let mut preset = Self::dipole(reduced, absorption, medium.eta as f32)?;
+        preset.medium = Ok(medium);
+        preset.description = format!(
+            "sigma_s_per_mm = {}, sigma_a_per_mm = {}, g = {}, eta = {}",
+            Rgb(medium.sigma_s_per_mm.map(|v| v as f32)),
+            Rgb(absorption),
+            medium.g,
+            medium.eta
         );
         Ok(preset)
     }
 
     /// Any medium by Jensen et al.'s dipole: reduced scattering σs′ (> 0) and absorption σa
     /// (≥ 0), mm⁻¹ per RGB channel, and the relative index of refraction η (medium over
-    /// outside; 1 for an index-matched boundary).
+    /// outside; 1 for an index-matched boundary). Simulated, it is isotropic with σs = σs′.
     ///
     /// # Errors
     /// [`PresetError::Parameter`] when a coefficient is negative, zero (σs′), NaN or infinite,
@@ -262,12 +286,110 @@ impl Preset {
                 Rgb(sigma_s_prime_per_mm),
                 Rgb(sigma_a_per_mm)
             ),
+            medium: ScatteringMedium::new(
+                sigma_s_prime_per_mm.map(f64::from),
+                sigma_a_per_mm.map(f64::from),
+                0.0,
+                f64::from(eta),
+            ),
             cdrf: PreintegratedCdrf::new(PresetProfile::Dipole(profile)),
             albedo,
         })
     }
 
-    /// The name (`custom` for [`Preset::dipole`]).
+    /// The scattering medium the spheres are simulated in.
+    ///
+    /// # Errors
+    /// [`PresetError::NoMedium`] for d'Eon's skin; [`PresetError::NotSimulable`] when the
+    /// coefficients are out of the simulator's range.
+    pub fn medium(&self) -> Result<&ScatteringMedium, PresetError> {
+        match &self.medium {
+            Ok(medium) => Ok(medium),
+            Err(_) if self.name == DEON_SKIN => Err(PresetError::NoMedium(self.name.clone())),
+            Err(error) => Err(PresetError::NotSimulable {
+                name: self.name.clone(),
+                error: error.clone(),
+            }),
+        }
+    }
+
+    /// The tables from simulated spheres ([`simulated::fit_simulated`]), through `cache` when
+    /// given (a hit costs nothing). `progress` gets the photons traced so far, out of
+    /// [`simulated::total_photons`]; a cache hit calls it with the total.
+    ///
+    /// # Errors
+    /// When the preset has no medium, the simulation or the fit fails.
+    pub fn simulate(
+        &self,
+        settings: &SimulatedSettings,
+        cache: Option<&PresetCache>,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<PresetTables, PresetError> {
+        let medium = self.medium()?;
+        let key = cache::key(&self.name, medium, settings);
+        if let Some(hit) = cache.and_then(|cache| cache.load(&key)) {
+            progress(simulated::total_photons(medium, settings));
+            return Ok(PresetTables {
+                lut: hit.0,
+                gaussian: hit.1,
+                spheres: Vec::new(),
+                cached: true,
+            });
+        }
+        let fitted = simulated::fit_simulated(medium, settings, progress)?;
+        let noise = fitted
+            .spheres
+            .iter()
+            .map(|s| {
+                format!(
+                    "r = {} mm: {} photons, lit {:.2} %, terminator {:.2} %, shadow {:.2} %, theta 150° {:.2} % (worst channel)",
+                    s.radius_mm,
+                    s.photons,
+                    100.0 * worst(s.noise.lit),
+                    100.0 * worst(s.noise.terminator),
+                    100.0 * worst(s.noise.shadow),
+                    100.0 * worst(s.noise.theta_150)
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ");
+        let sim = &settings.simulation;
+        let lut = fitted
+            .fit
+            .lut
+            .with_provenance("tool", format!("cdrf-preset {}", env!("CARGO_PKG_VERSION")))
+            .with_provenance("source", "preset: simulated spheres (Monte Carlo), no photographs")
+            .with_provenance("preset", self.name.clone())
+            .with_provenance("medium", self.description.clone())
+            .with_provenance(
+                "simulation",
+                format!(
+                    "radii_mm = {:?}, photons = {} per sphere and walk, seed = {}, image {} px with the sphere {} px in radius, batches = {}, estimator = {:?}",
+                    settings.radii_mm,
+                    sim.photons,
+                    sim.seed,
+                    sim.image_size_px,
+                    sim.sphere_radius_px,
+                    sim.batches,
+                    fitted.spheres.first().map(|s| s.estimator),
+                ),
+            )
+            .with_provenance("simulation_noise", noise)
+            .with_provenance("cache_key", key.clone());
+        let gaussian = fitted.fit.gaussian.model;
+        if let Some(cache) = cache {
+            // A cache that cannot be written costs the next run time, nothing else.
+            let _ = cache.store(&key, &lut, &gaussian);
+        }
+        Ok(PresetTables {
+            lut,
+            gaussian,
+            spheres: fitted.spheres,
+            cached: false,
+        })
+    }
+
+    /// The name (`custom` for [`Preset::dipole`] and [`Preset::from_medium`]).
     pub fn name(&self) -> &str {
         &self.name
     }
@@ -351,6 +473,64 @@ impl Cdrf for Preset {
         self.reflectance_f64(f64::from(curvature_per_mm), f64::from(theta_rad))
             .map(|v| v as f32)
     }
+}
+
+/// Which model makes a preset's table.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PresetModel {
+    /// Simulated spheres through the fit (the default).
+    Simulated(SimulatedSettings),
+    /// The dipole (or d'Eon's Gaussians) pre-integrated over the ring.
+    Dipole(PresetSettings),
+}
+
+impl Default for PresetModel {
+    fn default() -> Self {
+        Self::Simulated(SimulatedSettings::default())
+    }
+}
+
+/// A preset's two tables and, when simulated, what each sphere's simulation reached.
+#[derive(Clone, Debug)]
+pub struct PresetTables {
+    /// The CDRF table.
+    pub lut: CdrfLut,
+    /// Kubo's Gaussian CDRF (fitted to the spheres, or to the dipole's table).
+    pub gaussian: GaussianCdrf,
+    /// Per simulated sphere; empty for the dipole and for a cache hit.
+    pub spheres: Vec<SimulatedSphereReport>,
+    /// Whether the tables came from the cache.
+    pub cached: bool,
+}
+
+impl Preset {
+    /// The tables by `model`; see [`Preset::simulate`] for `cache` and `progress`.
+    ///
+    /// # Errors
+    /// As [`Preset::simulate`] or [`Preset::build_tables`].
+    pub fn tables(
+        &self,
+        model: &PresetModel,
+        cache: Option<&PresetCache>,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<PresetTables, PresetError> {
+        match model {
+            PresetModel::Simulated(settings) => self.simulate(settings, cache, progress),
+            PresetModel::Dipole(settings) => {
+                let (lut, gaussian) = self.build_tables(settings)?;
+                Ok(PresetTables {
+                    lut,
+                    gaussian,
+                    spheres: Vec::new(),
+                    cached: false,
+                })
+            }
+        }
+    }
+}
+
+fn worst(values: [f32; 3]) -> f32 {
+    values.into_iter().fold(0.0, f32::max)
 }
 
 /// The axes of a preset's table. `Default` is what `cdrf-preset` uses.
@@ -442,52 +622,58 @@ pub fn fit_gaussian_to_lut(lut: &CdrfLut) -> Result<GaussianCdrf, PresetError> {
 pub struct WrittenPreset {
     /// The files, `out_dir/measured.exr` and `out_dir/gaussian.toml`.
     pub files: Vec<PathBuf>,
-    /// The Gaussian CDRF written to `gaussian.toml`.
-    pub gaussian: GaussianCdrf,
+    /// The tables written and how they were made.
+    pub tables: PresetTables,
 }
 
-/// Builds `preset`'s table and Gaussian CDRF and writes them into `out_dir` (created if
-/// missing) as [`MEASURED_LUT`] and [`GAUSSIAN`] (whose `view_correction_from` names the
-/// table, as `cdrf-fit`'s does; its g is 1).
+/// Makes `preset`'s tables by `model` (see [`Preset::tables`]) and writes them into `out_dir`
+/// (created if missing) as [`MEASURED_LUT`] and [`GAUSSIAN`] (whose `view_correction_from`
+/// names the table, as `cdrf-fit`'s does).
 ///
 /// Everything is computed before anything is written; both files are written into a staging
 /// folder `out_dir/.cdrf-partial-*` and then renamed into place, so a failure leaves no partial
 /// file (and removes `out_dir` again when this call created it and it is empty).
 ///
 /// # Errors
-/// [`PresetError::NotAFolder`] when `out_dir` is an existing file, [`PresetError::Table`] for
-/// bad settings, [`PresetError::Io`] / [`PresetError::LutFile`] when writing fails.
+/// [`PresetError::NotAFolder`] when `out_dir` is an existing file, the errors of
+/// [`Preset::tables`], [`PresetError::Io`] / [`PresetError::LutFile`] when writing fails.
 pub fn write_preset(
     preset: &Preset,
-    settings: &PresetSettings,
+    model: &PresetModel,
+    cache: Option<&PresetCache>,
     out_dir: &Path,
+    progress: &(dyn Fn(u64) + Sync),
 ) -> Result<WrittenPreset, PresetError> {
     if out_dir.exists() && !out_dir.is_dir() {
         return Err(PresetError::NotAFolder {
             path: out_dir.to_path_buf(),
         });
     }
-    let (lut, gaussian) = preset.build_tables(settings)?;
+    let tables = preset.tables(model, cache, progress)?;
     let parameters = GaussianParameters {
-        sigma_mm: gaussian.sigma_mm(),
-        scale: gaussian.scale(),
+        sigma_mm: tables.gaussian.sigma_mm(),
+        scale: tables.gaussian.scale(),
         view_correction_from: Some(MEASURED_LUT.into()),
     };
+    let how = match model {
+        PresetModel::Simulated(_) => "fitted by cdrf-preset to simulated spheres",
+        PresetModel::Dipole(_) => "fitted by cdrf-preset to the dipole table (g = 1)",
+    };
     let toml = format!(
-        "# Fitted by cdrf-preset to the preset table {MEASURED_LUT} (medium: {}; no photographs, g = 1).\n{}",
+        "# Kubo's Gaussian CDRF {how}; medium: {}; no photographs.\n{}",
         preset.description().replace('\n', " "),
         parameters.to_toml_string()
     );
 
     let created = !out_dir.exists();
-    let result = stage_and_move(&lut, toml.as_bytes(), out_dir);
+    let result = stage_and_move(&tables.lut, toml.as_bytes(), out_dir);
     if result.is_err() && created {
         // Only removes an empty folder: never anything that was there before.
         let _ = std::fs::remove_dir(out_dir);
     }
     Ok(WrittenPreset {
         files: result?,
-        gaussian,
+        tables,
     })
 }
 

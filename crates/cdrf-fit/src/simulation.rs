@@ -104,7 +104,11 @@ impl ScatteringMedium {
     ) -> Result<Self, SimulationError> {
         let ok = (0..3).all(|c| {
             let (s, a) = (sigma_s_per_mm[c], sigma_a_per_mm[c]);
-            s.is_finite() && a.is_finite() && s >= 0.0 && a >= 0.0 && (1e-3..=1e3).contains(&(s + a))
+            s.is_finite()
+                && a.is_finite()
+                && s >= 0.0
+                && a >= 0.0
+                && (1e-3..=1e3).contains(&(s + a))
         });
         if !ok {
             return Err(SimulationError::Coefficients {
@@ -152,14 +156,18 @@ impl ScatteringMedium {
 pub enum Estimator {
     /// Next-event estimation toward the camera from every collision; index-matched only.
     ViewRays,
-    /// Photons leaving within a band of directions around the camera's; any η.
+    /// Rays from every collision to the boundary and through its internal reflections, kept
+    /// when they leave within a band of directions around the camera's; any η.
     ExitBand,
+    /// The photons' own exits within the band: the plainest estimator, exact by construction
+    /// and slow (most photons leave outside the band); the others are tested against it.
+    ExitPhotons,
 }
 
 /// How much and how the simulation traces.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct SimulationSettings {
-    /// Photons per sphere and walk (a chromatic medium walks three times).
+    /// Photons per sphere (a chromatic medium's three walks share them).
     pub photons: u64,
     /// Independent batches (≥ 2): their spread is the reported noise.
     pub batches: u32,
@@ -177,6 +185,9 @@ pub struct SimulationSettings {
     pub rays: u32,
     /// Half-width ε of the band `|ω·L| < ε` ([`Estimator::ExitBand`]).
     pub band_half_width: f64,
+    /// Scattering events after which a path ends (the references' `max_depth`); `u32::MAX`
+    /// for none.
+    pub max_scatterings: u32,
     /// The estimator; `None` picks [`Estimator::ViewRays`] at η = 1 and
     /// [`Estimator::ExitBand`] otherwise.
     pub estimator: Option<Estimator>,
@@ -191,10 +202,11 @@ impl Default for SimulationSettings {
             seed: 1,
             image_size_px: 512,
             sphere_radius_px: 230.0,
-            rotations: 16,
+            rotations: 4,
             rays: 16,
             band_half_width: 0.04,
             estimator: None,
+            max_scatterings: u32::MAX,
         }
     }
 }
@@ -209,8 +221,8 @@ impl SimulationSettings {
             Some("photons must be at least batches × chunks_per_batch")
         } else if self.photons > 1 << 40 {
             Some("photons must be at most 2^40")
-        } else if !(16..=4096).contains(&self.image_size_px) {
-            Some("image_size_px must be in 16 … 4096")
+        } else if !(16..=4096).contains(&self.image_size_px) || self.image_size_px % 2 != 0 {
+            Some("image_size_px must be even and in 16 … 4096")
         } else if !(self.sphere_radius_px >= 4.0
             && self.sphere_radius_px <= self.image_size_px as f32 / 2.0)
         {
@@ -252,6 +264,9 @@ pub struct SimulatedSphere {
     pub estimator: Estimator,
     /// The noise reached.
     pub noise: SimulationNoise,
+    /// The share of the light falling on the sphere that leaves it again (reflected and
+    /// transmitted, every direction), per channel: 1 − absorbed − reflected at entry.
+    pub escaped_fraction: [f64; 3],
     /// Photons traced (all walks).
     pub photons: u64,
     /// Wall time, seconds.
@@ -305,38 +320,52 @@ pub fn simulate_sphere(
     let chunks = settings.chunks_per_batch as usize;
     let done = AtomicU64::new(0);
 
+    // Every walk traces its share of the photons, split into batches × chunks tasks with
+    // their own generators. Tasks run a window at a time and are summed in task order, so
+    // the image does not depend on the thread count.
+    let per_walk = (settings.photons / groups.len() as u64).max((batches * chunks) as u64);
+    let flux = PI * f64::from(radius_mm).powi(2) / per_walk as f64;
+    let walkers: Vec<Walk> = groups
+        .iter()
+        .map(|channels| Walk::new(medium, channels, f64::from(radius_mm), estimator, settings))
+        .collect();
+    let tasks: Vec<(usize, usize, u64)> = (0..batches)
+        .flat_map(|batch| {
+            (0..walkers.len()).flat_map(move |walk| {
+                (0..chunks).map(move |chunk| (batch, walk, (batch * chunks + chunk) as u64))
+            })
+        })
+        .collect();
+    let mut batch_sums: Vec<Accumulator> =
+        (0..batches).map(|_| Accumulator::new(frame.size)).collect();
+    for window in tasks.chunks(TASK_WINDOW) {
+        let images: Vec<Accumulator> = window
+            .par_iter()
+            .map(|&(_, walk, index)| {
+                let count = chunk_photons(per_walk, batches * chunks, index);
+                let stream = (walk as u64) << 32 | index;
+                let mut rng = Pcg64Mcg::seed_from_u64(mix(settings.seed, stream));
+                let mut image = Accumulator::new(frame.size);
+                for traced in 0..count {
+                    walkers[walk].trace(&mut rng, &frame, flux, &mut image);
+                    if traced % 1024 == 1023 {
+                        progress(done.fetch_add(1024, Ordering::Relaxed) + 1024);
+                    }
+                }
+                done.fetch_add(count % 1024, Ordering::Relaxed);
+                image
+            })
+            .collect();
+        for (&(batch, _, _), image) in window.iter().zip(&images) {
+            batch_sums[batch].add(image);
+        }
+    }
     let mut total = Accumulator::new(frame.size);
     let mut batch_means = Vec::with_capacity(batches);
-    for batch in 0..batches {
-        let mut batch_image = Accumulator::new(frame.size);
-        for (group_index, channels) in groups.iter().enumerate() {
-            let walk = Walk::new(medium, channels, f64::from(radius_mm), estimator, settings);
-            let images: Vec<Accumulator> = (0..chunks)
-                .into_par_iter()
-                .map(|chunk| {
-                    let index = (batch * chunks + chunk) as u64;
-                    let count = chunk_photons(settings.photons, batches * chunks, index);
-                    let stream = (group_index as u64) << 32 | index;
-                    let mut rng = Pcg64Mcg::seed_from_u64(mix(settings.seed, stream));
-                    let mut image = Accumulator::new(frame.size);
-                    let flux = PI * f64::from(radius_mm).powi(2) / settings.photons as f64;
-                    for traced in 0..count {
-                        walk.trace(&mut rng, &frame, flux, &mut image);
-                        if traced % 4096 == 4095 {
-                            progress(done.fetch_add(4096, Ordering::Relaxed) + 4096);
-                        }
-                    }
-                    done.fetch_add(count % 4096, Ordering::Relaxed);
-                    image
-                })
-                .collect();
-            for image in &images {
-                batch_image.add(image);
-            }
-        }
+    for batch in &batch_sums {
         // Each batch traced 1/batches of the photons: scale it to a full estimate.
-        batch_means.push(frame.region_means(&batch_image, batches as f64));
-        total.add(&batch_image);
+        batch_means.push(frame.region_means(batch, batches as f64));
+        total.add(batch);
     }
     progress(done.load(Ordering::Relaxed));
     let means = frame.region_means(&total, 1.0);
@@ -347,10 +376,17 @@ pub fn simulate_sphere(
         circle: frame.circle(),
         estimator,
         noise,
-        photons: settings.photons * groups.len() as u64,
+        escaped_fraction: total
+            .escaped
+            .map(|e| e / (PI * f64::from(radius_mm).powi(2))),
+        photons: per_walk * groups.len() as u64,
         seconds: started.elapsed().as_secs_f64(),
     })
 }
+
+/// Tasks traced in parallel before their images are summed (bounds the memory: one half
+/// image of `f64` RGB per task).
+const TASK_WINDOW: usize = 16;
 
 /// How many walks a medium needs: one when its σt is the same in every channel, else three.
 pub fn walks(medium: &ScatteringMedium) -> usize {
@@ -362,9 +398,7 @@ fn channel_groups(medium: &ScatteringMedium) -> Vec<[bool; 3]> {
     if t[0] == t[1] && t[1] == t[2] {
         vec![[true; 3]]
     } else {
-        (0..3)
-            .map(|c| std::array::from_fn(|k| k == c))
-            .collect()
+        (0..3).map(|c| std::array::from_fn(|k| k == c)).collect()
     }
 }
 
@@ -407,21 +441,28 @@ fn noise_of(batch_means: &[[[f64; 3]; 4]], means: &[[f64; 3]; 4]) -> SimulationN
     }
 }
 
-/// Radiance sums per pixel, RGB.
+/// Radiance sums per pixel, RGB, of the top half of the image: the scene is mirror-symmetric
+/// about the horizontal axis, so a point below it lands in its mirror pixel above.
 struct Accumulator {
     size: usize,
     sums: Vec<[f64; 3]>,
+    /// Flux that left the sphere, per channel.
+    escaped: [f64; 3],
 }
 
 impl Accumulator {
     fn new(size: usize) -> Self {
         Self {
             size,
-            sums: vec![[0.0; 3]; size * size],
+            sums: vec![[0.0; 3]; size * size / 2],
+            escaped: [0.0; 3],
         }
     }
 
     fn add(&mut self, other: &Self) {
+        for c in 0..3 {
+            self.escaped[c] += other.escaped[c];
+        }
         for (a, b) in self.sums.iter_mut().zip(&other.sums) {
             for c in 0..3 {
                 a[c] += b[c];
@@ -429,12 +470,22 @@ impl Accumulator {
         }
     }
 
+    /// The sums of pixel (column, row), folded into the top half.
+    fn at(&self, column: usize, row: usize) -> [f64; 3] {
+        let row = row.min(self.size - 1 - row);
+        self.sums[row * self.size + column]
+    }
+
     /// Adds `weight · factor` to the pixel under the image-plane point (x, y) mm.
     #[inline]
     fn splat(&mut self, frame: &Frame, x: f64, y: f64, weight: &[f64; 3], factor: f64) {
         let column = (x * frame.px_per_mm + frame.half_size).floor();
-        let row = (frame.half_size - y * frame.px_per_mm).floor();
-        if column >= 0.0 && row >= 0.0 && column < frame.size as f64 && row < frame.size as f64 {
+        let row = (frame.half_size - y.abs() * frame.px_per_mm).floor();
+        if column >= 0.0
+            && row >= 0.0
+            && column < frame.size as f64
+            && row < (frame.size / 2) as f64
+        {
             let pixel = &mut self.sums[row as usize * self.size + column as usize];
             for c in 0..3 {
                 pixel[c] += weight[c] * factor;
@@ -488,12 +539,13 @@ impl Frame {
         let mut sums = [[0.0; 3]; 4];
         let mut counts = [0usize; 4];
         let theta_150 = ((145.0f64).to_radians().cos(), (155.0f64).to_radians().cos());
-        for row in 0..self.size {
+        for row in 0..self.size / 2 {
             for column in 0..self.size {
                 let Some(cos) = self.cos_theta(column, row) else {
                     continue;
                 };
-                let value = image.sums[row * self.size + column];
+                // A top-half pixel holds its own and its mirror's light.
+                let value = image.at(column, row).map(|v| 0.5 * v);
                 let mut regions = [false; 4];
                 regions[if cos >= 0.26 {
                     0
@@ -520,17 +572,14 @@ impl Frame {
         })
     }
 
-    /// The accumulated sums as radiance, mirror-averaged about the horizontal axis (the scene
-    /// is symmetric in y).
+    /// The accumulated sums as radiance, each pixel the mean of itself and its mirror.
     fn photograph(&self, image: &Accumulator) -> LinearImage {
         let n = self.size;
         let pixels = (0..n * n)
             .map(|index| {
-                let (row, column) = (index / n, index % n);
-                let mirror = image.sums[(n - 1 - row) * n + column];
-                let value = image.sums[index];
+                let value = image.at(index % n, index / n);
                 Vec3::from_array(std::array::from_fn(|c| {
-                    (0.5 * (value[c] + mirror[c]) / self.pixel_area_mm2) as f32
+                    (0.5 * value[c] / self.pixel_area_mm2) as f32
                 }))
             })
             .collect();
@@ -557,6 +606,8 @@ struct Walk {
     rotations: u32,
     rays: u32,
     band: f64,
+    split_rate_per_mm: f64,
+    max_scatterings: u32,
 }
 
 impl Walk {
@@ -579,11 +630,19 @@ impl Walk {
             estimator,
             rotations: settings.rotations,
             rays: settings.rays,
+            max_scatterings: settings.max_scatterings,
             band: settings.band_half_width,
+            // The farthest-reaching channel of the walk: the smallest σtr.
+            split_rate_per_mm: (0..3)
+                .filter(|&c| channels[c])
+                .map(|c| 1.0 / medium.diffusion_length_mm()[c])
+                .fold(f64::INFINITY, f64::min)
+                .min(10.0),
         }
     }
 
-    /// Traces one photon of flux `flux` per channel from entry to exit or absorption.
+    /// Traces one photon of flux `flux` per channel from entry to exit or absorption, with the
+    /// copies the weight window splits off it.
     fn trace(&self, rng: &mut Pcg64Mcg, frame: &Frame, flux: f64, image: &mut Accumulator) {
         let r = self.radius;
         // Entry: uniform over the beam's disk; by the symmetry, on the +y half-plane.
@@ -602,8 +661,46 @@ impl Walk {
             }
             direction = refract_inward(beam, normal, cos_in, self.eta);
         }
-        let mut position = position;
         let start = weight.iter().copied().fold(0.0, f64::max);
+        let mut photons = vec![Photon {
+            position,
+            direction,
+            weight,
+            scatterings: 0,
+        }];
+        while let Some(photon) = photons.pop() {
+            self.walk(rng, photon, start, frame, image, &mut photons);
+        }
+    }
+
+    /// The importance of a point: photons there weigh `start / importance` in the weight
+    /// window. It grows by e per diffusion length of the walk's farthest-reaching channel
+    /// along the light's direction, so as many photons reach the shadow side as stay on the
+    /// lit side, up to [`MAX_IMPORTANCE`].
+    fn importance(&self, x: f64) -> f64 {
+        ((x + self.radius) * self.split_rate_per_mm)
+            .exp()
+            .min(MAX_IMPORTANCE)
+    }
+
+    /// One photon's walk until it leaves, is absorbed or ended by roulette; copies split off
+    /// go to `pending`.
+    fn walk(
+        &self,
+        rng: &mut Pcg64Mcg,
+        photon: Photon,
+        start: f64,
+        frame: &Frame,
+        image: &mut Accumulator,
+        pending: &mut Vec<Photon>,
+    ) {
+        let r = self.radius;
+        let Photon {
+            mut position,
+            mut direction,
+            mut weight,
+            mut scatterings,
+        } = photon;
         loop {
             let free_path = -(1.0 - uniform(rng)).ln() / self.sigma_t;
             let to_boundary = distance_to_sphere(position, direction, r);
@@ -622,10 +719,28 @@ impl Walk {
                     direction -= 2.0 * cos_out * normal;
                     continue;
                 }
-                // Escaping light reached the camera through the estimators already.
+                for c in 0..3 {
+                    image.escaped[c] += weight[c];
+                }
+                if self.estimator == Estimator::ExitPhotons {
+                    let out = refract_outward(direction, normal, cos_out, self.eta);
+                    self.record_exit(
+                        position,
+                        out,
+                        &weight,
+                        1.0 / (4.0 * PI * self.band),
+                        frame,
+                        image,
+                    );
+                }
+                // The other estimators counted escaping light at the collisions.
                 return;
             }
             position += direction * free_path;
+            if scatterings >= self.max_scatterings {
+                return;
+            }
+            scatterings += 1;
             for c in 0..3 {
                 weight[c] *= self.albedo[c];
             }
@@ -636,14 +751,31 @@ impl Walk {
                 Estimator::ExitBand => {
                     self.rays_to_boundary(rng, position, direction, &weight, frame, image);
                 }
+                Estimator::ExitPhotons => {}
             }
             direction = sample_henyey_greenstein(rng, direction, self.g);
-            // Russian roulette below 1 % of the entering flux: survivors carry the rest.
+            // Weight window: split heavy photons, roulette light ones (both unbiased).
+            let target = start / self.importance(position.x);
             let strongest = weight.iter().copied().fold(0.0, f64::max);
-            if strongest < 0.01 * start {
-                if uniform(rng) < 0.2 {
+            if strongest > 2.0 * target {
+                let copies = ((strongest / target) as usize).min(MAX_SPLIT);
+                let share = 1.0 / copies as f64;
+                for w in &mut weight {
+                    *w *= share;
+                }
+                for _ in 1..copies {
+                    pending.push(Photon {
+                        position,
+                        direction,
+                        weight,
+                        scatterings,
+                    });
+                }
+            } else if strongest < 0.1 * target {
+                let survival = strongest / (0.5 * target);
+                if uniform(rng) < survival {
                     for w in &mut weight {
-                        *w /= 0.2;
+                        *w /= survival;
                     }
                 } else {
                     return;
@@ -708,7 +840,14 @@ impl Walk {
                 let reflect = fresnel_from_inside(cos_out, self.eta);
                 if reflect < 1.0 {
                     let out = refract_outward(heading, normal, cos_out, self.eta);
-                    self.record_exit(point, out, weight, throughput * (1.0 - reflect), frame, image);
+                    self.record_exit(
+                        point,
+                        out,
+                        weight,
+                        throughput * (1.0 - reflect),
+                        frame,
+                        image,
+                    );
                 }
                 throughput *= reflect;
                 if throughput < 1e-6 * share {
@@ -744,6 +883,21 @@ impl Walk {
         let x = across * position.x - out.x * z;
         image.splat(frame, x, y, weight, factor);
     }
+}
+
+/// The weight window's largest importance (splits per photon, at most).
+const MAX_IMPORTANCE: f64 = 32.0;
+
+/// The most copies one split makes.
+const MAX_SPLIT: usize = 8;
+
+/// A photon in flight.
+#[derive(Clone, Copy)]
+struct Photon {
+    position: DVec3,
+    direction: DVec3,
+    weight: [f64; 3],
+    scatterings: u32,
 }
 
 /// Internal reflections followed per boundary ray (their weight falls as R^k).
@@ -816,11 +970,13 @@ fn fresnel_from_inside(cos: f64, eta: f64) -> f64 {
     fresnel_from_outside((1.0 - sin2_out).sqrt(), eta)
 }
 
-/// The direction of a ray arriving from outside along `direction` (cos `cos_in` with the
-/// inward normal) after entering a boundary of relative index `eta`.
+/// The direction of a ray arriving from outside along `direction` after entering a boundary of
+/// relative index `eta`; `normal` is the outward normal (facing the ray), `cos_in` = −direction·normal.
 fn refract_inward(direction: DVec3, normal: DVec3, cos_in: f64, eta: f64) -> DVec3 {
     let ratio = 1.0 / eta;
-    let cos_t = (1.0 - ratio * ratio * (1.0 - cos_in * cos_in)).max(0.0).sqrt();
+    let cos_t = (1.0 - ratio * ratio * (1.0 - cos_in * cos_in))
+        .max(0.0)
+        .sqrt();
     (direction * ratio + normal * (ratio * cos_in - cos_t)).normalize()
 }
 
@@ -830,7 +986,9 @@ fn refract_outward(direction: DVec3, normal: DVec3, cos_out: f64, eta: f64) -> D
     if eta == 1.0 {
         return direction;
     }
-    let cos_t = (1.0 - eta * eta * (1.0 - cos_out * cos_out)).max(0.0).sqrt();
+    let cos_t = (1.0 - eta * eta * (1.0 - cos_out * cos_out))
+        .max(0.0)
+        .sqrt();
     (direction * eta + normal * (cos_t - eta * cos_out)).normalize()
 }
 
@@ -856,14 +1014,16 @@ mod tests {
     #[test]
     fn refraction_obeys_snell_and_reverses() {
         let eta = 1.3;
-        let normal = DVec3::new(0.0, 0.0, -1.0); // inward normal is +z... outward −z
-        let incoming = DVec3::new(0.6, 0.0, 0.8); // travelling into the medium (+z)
-        let cos_in = incoming.dot(-normal);
-        let inside = refract_inward(incoming, -normal, cos_in, eta);
+        // A face whose outward normal is −z, hit by a ray travelling into it (+z).
+        let outward = DVec3::new(0.0, 0.0, -1.0);
+        let incoming = DVec3::new(0.6, 0.0, 0.8);
+        let cos_in = -incoming.dot(outward);
+        let inside = refract_inward(incoming, outward, cos_in, eta);
         let sin_in = (1.0 - cos_in * cos_in).sqrt();
         let sin_t = (1.0 - inside.z * inside.z).sqrt();
         assert!((sin_in - eta * sin_t).abs() < 1e-12);
-        // Leaving again through a parallel face restores the direction.
+        assert!(inside.z > 0.0 && inside.x > 0.0);
+        // Leaving again through a parallel face (outward normal +z) restores the direction.
         let out = refract_outward(inside, DVec3::Z, inside.z, eta);
         assert!((out - incoming).length() < 1e-12);
     }
@@ -893,5 +1053,250 @@ mod tests {
     fn chunks_share_the_photons_exactly() {
         let total: u64 = (0..7).map(|i| chunk_photons(100, 7, i)).sum();
         assert_eq!(total, 100);
+    }
+
+    /// Small and quick: a 64 px photograph of a sphere a few mean free paths across.
+    fn quick(photons: u64, estimator: Estimator) -> SimulationSettings {
+        SimulationSettings {
+            photons,
+            image_size_px: 64,
+            sphere_radius_px: 28.0,
+            estimator: Some(estimator),
+            ..SimulationSettings::default()
+        }
+    }
+
+    fn region_means(sphere: &SimulatedSphere) -> [[f64; 3]; 4] {
+        let frame = Frame::new(
+            sphere.radius_mm,
+            &SimulationSettings {
+                image_size_px: sphere.image.width,
+                sphere_radius_px: sphere.circle.radius_px,
+                ..SimulationSettings::default()
+            },
+        );
+        let mut image = Accumulator::new(frame.size);
+        for (index, pixel) in sphere.image.pixels.iter().enumerate() {
+            let (row, column) = (index / frame.size, index % frame.size);
+            if row < frame.size / 2 {
+                image.sums[index] =
+                    [0, 1, 2].map(|c| 2.0 * f64::from(pixel[c]) * frame.pixel_area_mm2);
+            }
+            let _ = column;
+        }
+        frame.region_means(&image, 1.0)
+    }
+
+    /// Two estimates of the lit and terminator means agree within `sigmas` of their combined
+    /// standard errors.
+    fn assert_agree(a: &SimulatedSphere, b: &SimulatedSphere, sigmas: f64, what: &str) {
+        let (ma, mb) = (region_means(a), region_means(b));
+        for (region, na, nb) in [
+            (0, a.noise.lit, b.noise.lit),
+            (1, a.noise.terminator, b.noise.terminator),
+        ] {
+            for c in 0..3 {
+                let error =
+                    (f64::from(na[c]) * ma[region][c]).hypot(f64::from(nb[c]) * mb[region][c]);
+                let difference = (ma[region][c] - mb[region][c]).abs();
+                assert!(
+                    difference <= sigmas * error + 1e-12,
+                    "{what}: region {region} channel {c}: {} vs {} (± {error})",
+                    ma[region][c],
+                    mb[region][c]
+                );
+            }
+        }
+    }
+
+    fn chromatic_medium(eta: f64) -> ScatteringMedium {
+        ScatteringMedium::new([0.95, 1.2, 1.5], [0.02, 0.05, 0.1], 0.3, eta).unwrap()
+    }
+
+    #[test]
+    fn the_three_estimators_agree_index_matched() {
+        let medium = chromatic_medium(1.0);
+        let exits = simulate_sphere(
+            &medium,
+            4.0,
+            &quick(600_000, Estimator::ExitPhotons),
+            &|_| {},
+        )
+        .unwrap();
+        for estimator in [Estimator::ViewRays, Estimator::ExitBand] {
+            let other = simulate_sphere(&medium, 4.0, &quick(60_000, estimator), &|_| {}).unwrap();
+            assert_agree(
+                &exits,
+                &other,
+                4.0,
+                &format!("{estimator:?} vs ExitPhotons"),
+            );
+        }
+    }
+
+    #[test]
+    fn boundary_rays_follow_fresnel_and_internal_reflection() {
+        // η = 1.4: the rays' Fresnel chains against the photons' own Fresnel walk.
+        let medium = chromatic_medium(1.4);
+        let exits = simulate_sphere(
+            &medium,
+            4.0,
+            &quick(600_000, Estimator::ExitPhotons),
+            &|_| {},
+        )
+        .unwrap();
+        let rays =
+            simulate_sphere(&medium, 4.0, &quick(60_000, Estimator::ExitBand), &|_| {}).unwrap();
+        assert_agree(&exits, &rays, 4.0, "ExitBand vs ExitPhotons at eta 1.4");
+        // The boundary changes the picture: index-matched is measurably different.
+        let matched = simulate_sphere(
+            &chromatic_medium(1.0),
+            4.0,
+            &quick(60_000, Estimator::ExitBand),
+            &|_| {},
+        )
+        .unwrap();
+        let (a, b) = (region_means(&rays)[0][0], region_means(&matched)[0][0]);
+        assert!((a / b - 1.0).abs() > 0.05, "eta 1.4 {a} vs eta 1 {b}");
+    }
+
+    #[test]
+    fn without_absorption_every_photon_that_enters_leaves() {
+        for eta in [1.0, 1.5] {
+            let medium = ScatteringMedium::new([2.0; 3], [0.0; 3], 0.5, eta).unwrap();
+            let sphere =
+                simulate_sphere(&medium, 3.0, &quick(20_000, Estimator::ViewRays), &|_| {})
+                    .unwrap();
+            // What enters: the disk-averaged Fresnel transmittance 2∫(1 − F(μ)) μ dμ.
+            let steps = 20_000;
+            let entering: f64 = (0..steps)
+                .map(|i| {
+                    let mu = (i as f64 + 0.5) / steps as f64;
+                    2.0 * (1.0 - fresnel_from_outside(mu, eta)) * mu / steps as f64
+                })
+                .sum();
+            for c in 0..3 {
+                let ratio = sphere.escaped_fraction[c] / entering;
+                assert!((ratio - 1.0).abs() < 2e-3, "eta {eta}: {ratio}");
+            }
+        }
+    }
+
+    /// Chandrasekhar's H-function of isotropic scattering with albedo `a`, by iterating
+    /// 1/H(μ) = √(1 − a) + (a/2) ∫₀¹ μ′ H(μ′) / (μ + μ′) dμ′ on a midpoint grid.
+    fn chandrasekhar_h(a: f64, mu: f64) -> f64 {
+        let n = 400;
+        let nodes: Vec<f64> = (0..n).map(|i| (i as f64 + 0.5) / n as f64).collect();
+        let mut h = vec![1.0; n];
+        let integral = |h: &[f64], mu: f64| -> f64 {
+            nodes
+                .iter()
+                .zip(h)
+                .map(|(&m, &hm)| m * hm / (mu + m))
+                .sum::<f64>()
+                / n as f64
+        };
+        for _ in 0..200 {
+            h = nodes
+                .iter()
+                .map(|&m| 1.0 / ((1.0 - a).sqrt() + 0.5 * a * integral(&h, m)))
+                .collect();
+        }
+        1.0 / ((1.0 - a).sqrt() + 0.5 * a * integral(&h, mu))
+    }
+
+    #[test]
+    fn a_large_sphere_reflects_what_a_half_space_does() {
+        // Diffusion length ≈ 1.3 mm on a 300 mm sphere: locally a half-space. Its reflectance
+        // for collimated light at μ0 is 1 − H(μ0)·√(1 − a) (Chandrasekhar, Radiative Transfer
+        // §59), averaged over the disk the beam falls on (weight 2μ0).
+        let a: f64 = 0.8;
+        let medium = ScatteringMedium::new([a; 3], [1.0 - a; 3], 0.0, 1.0).unwrap();
+        let sphere = simulate_sphere(
+            &medium,
+            300.0,
+            &quick(40_000, Estimator::ExitPhotons),
+            &|_| {},
+        )
+        .unwrap();
+        let steps = 200;
+        let expected: f64 = (0..steps)
+            .map(|i| {
+                let mu = (i as f64 + 0.5) / steps as f64;
+                2.0 * mu * (1.0 - chandrasekhar_h(a, mu) * (1.0 - a).sqrt()) / steps as f64
+            })
+            .sum();
+        for c in 0..3 {
+            let ratio = sphere.escaped_fraction[c] / expected;
+            assert!(
+                (ratio - 1.0).abs() < 0.01,
+                "{} vs {expected}",
+                sphere.escaped_fraction[c]
+            );
+        }
+        // The H-function's zeroth moment has a closed form: ∫H = 2/a·(1 − √(1 − a)).
+        let moment: f64 = (0..steps)
+            .map(|i| chandrasekhar_h(a, (i as f64 + 0.5) / steps as f64) / steps as f64)
+            .sum();
+        assert!(
+            (moment - 2.0 / a * (1.0 - (1.0 - a).sqrt())).abs() < 1e-3,
+            "{moment}"
+        );
+    }
+
+    #[test]
+    fn the_same_seed_gives_the_same_image() {
+        let medium = chromatic_medium(1.0);
+        let settings = quick(4_000, Estimator::ViewRays);
+        let a = simulate_sphere(&medium, 4.0, &settings, &|_| {}).unwrap();
+        let b = simulate_sphere(&medium, 4.0, &settings, &|_| {}).unwrap();
+        assert_eq!(a.image.pixels, b.image.pixels);
+        let other = SimulationSettings {
+            seed: 2,
+            ..settings
+        };
+        let c = simulate_sphere(&medium, 4.0, &other, &|_| {}).unwrap();
+        assert_ne!(a.image.pixels, c.image.pixels);
+    }
+
+    #[test]
+    fn bad_media_and_settings_are_typed_errors() {
+        assert!(matches!(
+            ScatteringMedium::new([-1.0; 3], [0.1; 3], 0.0, 1.0),
+            Err(SimulationError::Coefficients { .. })
+        ));
+        assert!(matches!(
+            ScatteringMedium::new([1.0; 3], [f64::NAN; 3], 0.0, 1.0),
+            Err(SimulationError::Coefficients { .. })
+        ));
+        assert!(matches!(
+            ScatteringMedium::new([1.0; 3], [0.1; 3], 1.0, 1.0),
+            Err(SimulationError::Asymmetry(_))
+        ));
+        assert!(matches!(
+            ScatteringMedium::new([1.0; 3], [0.1; 3], 0.0, 0.5),
+            Err(SimulationError::Eta(_))
+        ));
+        let medium = chromatic_medium(1.0);
+        let bad = SimulationSettings {
+            batches: 1,
+            ..SimulationSettings::default()
+        };
+        assert!(matches!(
+            simulate_sphere(&medium, 4.0, &bad, &|_| {}),
+            Err(SimulationError::Settings(_))
+        ));
+        let odd = SimulationSettings {
+            image_size_px: 63,
+            ..SimulationSettings::default()
+        };
+        assert!(matches!(
+            simulate_sphere(&medium, 4.0, &odd, &|_| {}),
+            Err(SimulationError::Settings(_))
+        ));
+        assert!(matches!(
+            simulate_sphere(&medium, 0.0, &SimulationSettings::default(), &|_| {}),
+            Err(SimulationError::Radius(_))
+        ));
     }
 }
