@@ -150,8 +150,16 @@ pub fn read_gaussian(path: impl AsRef<Path>) -> Result<GaussianParameters, Gauss
         path: path.to_owned(),
         error,
     })?;
+    parse_gaussian(&text, path)
+}
+
+/// Parses and validates the text of a `gaussian.toml`; `path` only names it in errors.
+///
+/// # Errors
+/// [`GaussianFileError::Syntax`] or [`GaussianFileError::Parameter`].
+pub fn parse_gaussian(text: &str, path: &Path) -> Result<GaussianParameters, GaussianFileError> {
     let parameters: GaussianParameters =
-        toml::from_str(&text).map_err(|error| GaussianFileError::Syntax {
+        toml::from_str(text).map_err(|error| GaussianFileError::Syntax {
             path: path.to_owned(),
             message: error.to_string().trim_end().to_owned(),
         })?;

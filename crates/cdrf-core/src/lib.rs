@@ -44,6 +44,7 @@ pub mod lut;
 pub mod lut_file;
 pub mod mesh;
 pub mod patches;
+pub mod presets;
 pub mod scene;
 pub mod shading;
 pub mod specular;

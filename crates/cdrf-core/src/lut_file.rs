@@ -177,7 +177,16 @@ pub fn read_lut(path: impl AsRef<Path>) -> Result<CdrfLut, LutFileError> {
             path: path.to_path_buf(),
             error,
         })?;
-    crate::input_file::check_exr_windows(bytes.as_slice()).map_err(|error| match error {
+    read_lut_bytes(bytes.as_slice(), path)
+}
+
+/// Decodes a CDRF table from the bytes of a `measured.exr` (e.g. one built into a binary);
+/// `path` only names it in errors.
+///
+/// # Errors
+/// As [`read_lut`], but never [`LutFileError::Io`].
+pub fn read_lut_bytes(bytes: &[u8], path: &Path) -> Result<CdrfLut, LutFileError> {
+    crate::input_file::check_exr_windows(bytes).map_err(|error| match error {
         crate::input_file::ExrHeaderError::Exr(error) => LutFileError::Exr {
             path: path.to_path_buf(),
             error,

@@ -344,7 +344,7 @@ pub enum SceneError {
         /// The LUT reader's error (names the LUT file).
         error: LutFileError,
     },
-    /// `[shading] subsurface = true` with a table that has no diffusion profile (a preset, or
+    /// `[shading] subsurface = true` with a table that has no diffusion profile (a dipole preset, or
     /// a LUT file before format version 4).
     #[error(
         "[shading] subsurface: {} has no diffusion profile, which the subsurface gather needs \

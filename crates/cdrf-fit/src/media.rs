@@ -189,6 +189,16 @@ const fn narasimhan(
     }
 }
 
+impl std::fmt::Display for Source {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Jensen2001 => "Jensen et al. 2001",
+            Self::Narasimhan2006 => "Narasimhan et al. 2006",
+            Self::CdrfWax => "the wax of cdrf's bundled photographs",
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -202,7 +212,10 @@ mod tests {
     /// Mitsuba spells "Budweiser Beder" and "Orange Juice Powder" where pbrt-v3 has "Budweiser
     /// Beer" and "Orange Powder".
     #[rustfmt::skip]
-    const MITSUBA: [(&str, [f64; 3], [f64; 3], [f64; 3]); 35] = [
+    /// (name, σs, σa, g per channel) as Mitsuba 0.6 holds them.
+    type MitsubaRow = (&'static str, [f64; 3], [f64; 3], [f64; 3]);
+
+    const MITSUBA: [MitsubaRow; 35] = [
         ("LowfatMilk", [13.1157, 15.4445, 17.9572], [0.00287, 0.00575, 0.0115], [0.932, 0.902, 0.859]),
         ("ReducedMilk", [13.7335, 15.6003, 17.8007], [0.00256, 0.00511, 0.01278], [0.819, 0.797, 0.746]),
         ("RegularMilk", [18.2052, 20.3826, 22.3698], [0.00153, 0.0046, 0.01993], [0.75, 0.714, 0.681]),
@@ -373,15 +386,5 @@ mod tests {
                 );
             }
         }
-    }
-}
-
-impl std::fmt::Display for Source {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Self::Jensen2001 => "Jensen et al. 2001",
-            Self::Narasimhan2006 => "Narasimhan et al. 2006",
-            Self::CdrfWax => "the wax of cdrf's bundled photographs",
-        })
     }
 }

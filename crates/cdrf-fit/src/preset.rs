@@ -178,6 +178,13 @@ pub struct Preset {
     name: String,
     description: String,
     medium: Result<ScatteringMedium, SimulationError>,
+    dipole: Result<DipoleCdrf, ParameterError>,
+}
+
+/// The dipole model of a preset: its profile pre-integrated over the ring, scaled by its
+/// albedo `R_d` (see the [module docs](self)). Implements [`Cdrf`] in the LUT convention π·L/E.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DipoleCdrf {
     cdrf: PreintegratedCdrf<PresetProfile>,
     albedo: [f64; 3],
 }
@@ -198,8 +205,10 @@ impl Preset {
                               weights normalised to white"
                     .to_owned(),
                 medium: Err(SimulationError::Settings("not a medium")),
-                cdrf: PreintegratedCdrf::new(PresetProfile::SumOfGaussians(profile)),
-                albedo,
+                dipole: Ok(DipoleCdrf {
+                    cdrf: PreintegratedCdrf::new(PresetProfile::SumOfGaussians(profile)),
+                    albedo,
+                }),
             });
         }
         let named = media::find(name).ok_or_else(|| PresetError::UnknownMedium {
@@ -248,20 +257,24 @@ impl Preset {
     /// η. Its dipole uses the reduced scattering σs′ = σs·(1 − g).
     ///
     /// # Errors
-    /// [`PresetError::Parameter`] when the dipole cannot be built from it.
+    /// Never for a checked medium; the dipole's own range is checked when its table is built
+    /// ([`Preset::dipole_cdrf`]).
     pub fn from_medium(medium: ScatteringMedium) -> Result<Self, PresetError> {
-        let reduced = std::array::from_fn(|c| (medium.sigma_s_per_mm[c] * (1.0 - medium.g)) as f32);
+        let reduced: [f32; 3] =
+            std::array::from_fn(|c| (medium.sigma_s_per_mm[c] * (1.0 - medium.g)) as f32);
         let absorption = medium.sigma_a_per_mm.map(|a| a as f32);
-        let mut preset = Self::dipole(reduced, absorption, medium.eta as f32)?;
-        preset.medium = Ok(medium);
-        preset.description = format!(
-            "sigma_s_per_mm = {}, sigma_a_per_mm = {}, g = {}, eta = {}",
-            Rgb(medium.sigma_s_per_mm.map(|v| v as f32)),
-            Rgb(absorption),
-            medium.g,
-            medium.eta
-        );
-        Ok(preset)
+        Ok(Self {
+            name: "custom".to_owned(),
+            description: format!(
+                "sigma_s_per_mm = {}, sigma_a_per_mm = {}, g = {}, eta = {}",
+                Rgb(medium.sigma_s_per_mm.map(|v| v as f32)),
+                Rgb(absorption),
+                medium.g,
+                medium.eta
+            ),
+            medium: Ok(medium),
+            dipole: DipoleCdrf::new(reduced, absorption, medium.eta as f32),
+        })
     }
 
     /// Any medium by Jensen et al.'s dipole: reduced scattering σs′ (> 0) and absorption σa
@@ -276,9 +289,8 @@ impl Preset {
         sigma_a_per_mm: [f32; 3],
         eta: f32,
     ) -> Result<Self, PresetError> {
-        let profile = DipoleProfile::new(sigma_a_per_mm, sigma_s_prime_per_mm, eta)
+        let dipole = DipoleCdrf::new(sigma_s_prime_per_mm, sigma_a_per_mm, eta)
             .map_err(PresetError::Parameter)?;
-        let albedo = profile.total_diffuse_reflectance();
         Ok(Self {
             name: "custom".to_owned(),
             description: format!(
@@ -292,9 +304,19 @@ impl Preset {
                 0.0,
                 f64::from(eta),
             ),
-            cdrf: PreintegratedCdrf::new(PresetProfile::Dipole(profile)),
-            albedo,
+            dipole: Ok(dipole),
         })
+    }
+
+    /// The dipole model (or d'Eon's Gaussians), pre-integrated.
+    ///
+    /// # Errors
+    /// [`PresetError::Parameter`] when the medium is outside the dipole's range (e.g. a channel
+    /// that does not scatter, σs′ = 0).
+    pub fn dipole_cdrf(&self) -> Result<&DipoleCdrf, PresetError> {
+        self.dipole
+            .as_ref()
+            .map_err(|error| PresetError::Parameter(error.clone()))
     }
 
     /// The scattering medium the spheres are simulated in.
@@ -399,23 +421,6 @@ impl Preset {
         &self.description
     }
 
-    /// The profile.
-    pub fn profile(&self) -> &PresetProfile {
-        self.cdrf.profile()
-    }
-
-    /// The total diffuse reflectance `R_d` per RGB channel: the table's value for a flat
-    /// surface lit head-on (see the [module docs](self)).
-    pub fn albedo(&self) -> [f64; 3] {
-        self.albedo
-    }
-
-    /// `R_d · D(θ, 1/κ)` in `f64`, π·L/E.
-    pub fn reflectance_f64(&self, curvature_per_mm: f64, theta_rad: f64) -> [f64; 3] {
-        let d = self.cdrf.reflectance_f64(curvature_per_mm, theta_rad);
-        std::array::from_fn(|c| self.albedo[c] * d[c])
-    }
-
     /// The table on `settings`' axes and Kubo's Gaussian CDRF fitted to it
     /// ([`fit_gaussian_to_lut`]): what `cdrf-preset` writes and the viewer's material picker
     /// shows.
@@ -445,8 +450,9 @@ impl Preset {
         if settings.curvature_count < 2 {
             return Err(PresetError::Table(LutError::BadCurvatureAxis(axis)));
         }
-        let albedo = self.albedo;
-        let lut = CdrfLut::tabulate(self, axis, settings.theta_count)
+        let dipole = self.dipole_cdrf()?;
+        let albedo = dipole.albedo;
+        let lut = CdrfLut::tabulate(dipole, axis, settings.theta_count)
             .map_err(PresetError::Table)?
             .with_view_correction(ViewCorrection::identity())
             .with_provenance("tool", format!("cdrf-preset {}", env!("CARGO_PKG_VERSION")))
@@ -468,7 +474,38 @@ impl Preset {
     }
 }
 
-impl Cdrf for Preset {
+impl DipoleCdrf {
+    fn new(
+        sigma_s_prime_per_mm: [f32; 3],
+        sigma_a_per_mm: [f32; 3],
+        eta: f32,
+    ) -> Result<Self, ParameterError> {
+        let profile = DipoleProfile::new(sigma_a_per_mm, sigma_s_prime_per_mm, eta)?;
+        Ok(Self {
+            albedo: profile.total_diffuse_reflectance(),
+            cdrf: PreintegratedCdrf::new(PresetProfile::Dipole(profile)),
+        })
+    }
+
+    /// The profile.
+    pub fn profile(&self) -> &PresetProfile {
+        self.cdrf.profile()
+    }
+
+    /// The total diffuse reflectance `R_d` per RGB channel: the table's value for a flat
+    /// surface lit head-on (see the [module docs](self)).
+    pub fn albedo(&self) -> [f64; 3] {
+        self.albedo
+    }
+
+    /// `R_d · D(θ, 1/κ)` in `f64`, π·L/E.
+    pub fn reflectance_f64(&self, curvature_per_mm: f64, theta_rad: f64) -> [f64; 3] {
+        let d = self.cdrf.reflectance_f64(curvature_per_mm, theta_rad);
+        std::array::from_fn(|c| self.albedo[c] * d[c])
+    }
+}
+
+impl Cdrf for DipoleCdrf {
     fn reflectance(&self, curvature_per_mm: f32, theta_rad: f32) -> [f32; 3] {
         self.reflectance_f64(f64::from(curvature_per_mm), f64::from(theta_rad))
             .map(|v| v as f32)

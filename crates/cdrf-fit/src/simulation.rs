@@ -196,14 +196,14 @@ pub struct SimulationSettings {
 impl Default for SimulationSettings {
     fn default() -> Self {
         Self {
-            photons: 400_000,
+            photons: 300_000,
             batches: 8,
             chunks_per_batch: 8,
             seed: 1,
             image_size_px: 512,
             sphere_radius_px: 230.0,
             rotations: 4,
-            rays: 16,
+            rays: 4,
             band_half_width: 0.04,
             estimator: None,
             max_scatterings: u32::MAX,
@@ -221,7 +221,7 @@ impl SimulationSettings {
             Some("photons must be at least batches × chunks_per_batch")
         } else if self.photons > 1 << 40 {
             Some("photons must be at most 2^40")
-        } else if !(16..=4096).contains(&self.image_size_px) || self.image_size_px % 2 != 0 {
+        } else if !(16..=4096).contains(&self.image_size_px) || !self.image_size_px.is_multiple_of(2) {
             Some("image_size_px must be even and in 16 … 4096")
         } else if !(self.sphere_radius_px >= 4.0
             && self.sphere_radius_px <= self.image_size_px as f32 / 2.0)
@@ -632,12 +632,13 @@ impl Walk {
             rays: settings.rays,
             max_scatterings: settings.max_scatterings,
             band: settings.band_half_width,
-            // The farthest-reaching channel of the walk: the smallest σtr.
+            // The farthest-reaching channel of the walk (the smallest σtr), but never faster
+            // than reaching the largest importance at the far side of the sphere.
             split_rate_per_mm: (0..3)
                 .filter(|&c| channels[c])
                 .map(|c| 1.0 / medium.diffusion_length_mm()[c])
                 .fold(f64::INFINITY, f64::min)
-                .min(10.0),
+                .min(MAX_IMPORTANCE.ln() / (2.0 * radius)),
         }
     }
 
@@ -675,8 +676,8 @@ impl Walk {
 
     /// The importance of a point: photons there weigh `start / importance` in the weight
     /// window. It grows by e per diffusion length of the walk's farthest-reaching channel
-    /// along the light's direction, so as many photons reach the shadow side as stay on the
-    /// lit side, up to [`MAX_IMPORTANCE`].
+    /// along the light's direction (so that light that does reach the shadow side is sampled
+    /// as densely as the lit side), and at most to [`MAX_IMPORTANCE`] at the far side.
     fn importance(&self, x: f64) -> f64 {
         ((x + self.radius) * self.split_rate_per_mm)
             .exp()
@@ -838,7 +839,12 @@ impl Walk {
                 let normal = point / self.radius;
                 let cos_out = heading.dot(normal).clamp(0.0, 1.0);
                 let reflect = fresnel_from_inside(cos_out, self.eta);
-                if reflect < 1.0 {
+                // A chord keeps its angle to the surface at every bounce inside a sphere: a
+                // ray past the critical angle never leaves.
+                if reflect >= 1.0 {
+                    break;
+                }
+                {
                     let out = refract_outward(heading, normal, cos_out, self.eta);
                     self.record_exit(
                         point,
@@ -850,7 +856,7 @@ impl Walk {
                     );
                 }
                 throughput *= reflect;
-                if throughput < 1e-6 * share {
+                if throughput < 1e-4 * share {
                     break;
                 }
                 heading -= 2.0 * cos_out * normal;
@@ -886,7 +892,7 @@ impl Walk {
 }
 
 /// The weight window's largest importance (splits per photon, at most).
-const MAX_IMPORTANCE: f64 = 32.0;
+const MAX_IMPORTANCE: f64 = 256.0;
 
 /// The most copies one split makes.
 const MAX_SPLIT: usize = 8;

@@ -27,14 +27,15 @@
 //! let format = wgpu::TextureFormat::Rgba8UnormSrgb;
 //! let mut renderer = Renderer::new(device, &TargetDesc::new(format), Options::default());
 //!
-//! // A sphere of radius 20 mm (mesh units are mm) and the measured wax: the table cdrf-fit
-//! // wrote from photographs of wax spheres (the repository's data/wax-fit/), with its view
-//! // correction, translucency and diffusion profile.
+//! // A sphere of radius 20 mm (mesh units are mm) and wax built into the crates: a full table
+//! // (view correction, translucency, diffusion profile) fitted to simulated wax spheres.
+//! // A table of your own, from cdrf-fit or cdrf-preset, is `MaterialDesc::Measured`:
+//! // `read_lut(data.join("wax-fit/measured.exr"))?` is the one fitted to the wax photographs.
 //! let sphere = Mesh::icosphere(20.0, 3);
 //! let curvature = mean_curvature_per_mm(&sphere, &CurvatureOptions::new(1.0))?;
 //! let mesh = renderer.create_mesh(device, &MeshDesc::from_mesh(&sphere, &curvature))?;
-//! let wax = read_lut(data.join("wax-fit/measured.exr"))?;
-//! let material = renderer.create_material(device, queue, &MaterialDesc::Measured { lut: &wax })?;
+//! let material = renderer.create_material(device, queue, &MaterialDesc::preset("wax")?)?;
+//! # let _measured = read_lut(data.join("wax-fit/measured.exr"))?;
 //!
 //! // Per frame: camera, lights, draws; then record into the host's pass.
 //! let view = View {

@@ -47,6 +47,20 @@ pub enum MaterialDesc<'a> {
     },
 }
 
+impl MaterialDesc<'static> {
+    /// A material built into the crates ([`cdrf_core::presets`]: `wax`, `skin1`, `marble`,
+    /// `wholemilk`; case-insensitive): the measured model with a table fitted to simulated
+    /// spheres of the medium, decoded once on first use.
+    ///
+    /// # Errors
+    /// [`cdrf_core::presets::PresetError::Unknown`] listing the built-in names.
+    pub fn preset(name: &str) -> Result<Self, cdrf_core::presets::PresetError> {
+        Ok(MaterialDesc::Measured {
+            lut: cdrf_core::presets::lut(name)?,
+        })
+    }
+}
+
 impl MaterialDesc<'_> {
     /// The model this is.
     pub fn model(&self) -> ShadingModel {

@@ -11,7 +11,6 @@ use cdrf_core::glam::{Mat3, Mat4, Vec2, Vec3};
 use cdrf_core::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight};
 use cdrf_core::specular::{DEFAULT_IOR, DEFAULT_ROUGHNESS_ALPHA, SpecularLayer};
 use cdrf_core::{Cdrf, Filter, ShadingModel};
-use cdrf_fit::preset::{Preset, PresetSettings, preset_names};
 use cdrf_render::{
     ENVIRONMENT_SH_ORDER, MaterialDesc, MaterialId, MeshDesc, MeshId, SurfaceDesc, SurfaceId,
 };
@@ -988,14 +987,14 @@ impl ViewerApp {
         egui::ComboBox::from_label("material")
             .selected_text(current.clone())
             .show_ui(ui, |ui| {
-                for name in std::iter::once(BUNDLED_MATERIAL).chain(preset_names()) {
+                for name in std::iter::once(BUNDLED_MATERIAL).chain(cdrf_core::presets::names()) {
                     if ui.selectable_label(current == name, name).clicked() {
                         picked = Some(name.to_owned());
                     }
                 }
             })
             .response
-            .on_hover_text("The bundled fit to the wax photographs, or a medium's table computed from its scattering coefficients (cdrf-preset)");
+            .on_hover_text("The bundled fit to the wax photographs, or a material built into cdrf-core: a table fitted to simulated spheres of the medium (cdrf-preset makes more)");
         if let Some(name) = picked.filter(|name| *name != current) {
             self.pick_material(&name);
         }
@@ -1006,8 +1005,8 @@ impl ViewerApp {
             self.open(&bundled_data_dir().join("wax-fit"));
             return;
         }
-        let made =
-            Preset::named(name).and_then(|preset| preset.build_tables(&PresetSettings::default()));
+        let made = cdrf_core::presets::lut(name)
+            .and_then(|lut| Ok((lut.clone(), cdrf_core::presets::gaussian(name)?)));
         match made {
             Ok((lut, gaussian)) => {
                 let path = PathBuf::from(format!("{PRESET_PREFIX}{name}"));

@@ -227,16 +227,18 @@ fn report(
     let tables = &written.tables;
     match model {
         PresetModel::Dipole(settings) => {
-            let r_d = preset.albedo();
-            eprintln!(
-                "dipole: albedo R_d = [{:.4}, {:.4}, {:.4}] (a flat surface lit head-on, pi·L/E); curvature 0 … {} per mm in {} rows, theta in {} columns; view correction g = 1",
-                r_d[0],
-                r_d[1],
-                r_d[2],
-                settings.max_curvature_per_mm,
-                settings.curvature_count,
-                settings.theta_count
-            );
+            if let Ok(dipole) = preset.dipole_cdrf() {
+                let r_d = dipole.albedo();
+                eprintln!(
+                    "dipole: albedo R_d = [{:.4}, {:.4}, {:.4}] (a flat surface lit head-on, pi·L/E); curvature 0 … {} per mm in {} rows, theta in {} columns; view correction g = 1",
+                    r_d[0],
+                    r_d[1],
+                    r_d[2],
+                    settings.max_curvature_per_mm,
+                    settings.curvature_count,
+                    settings.theta_count
+                );
+            }
         }
         PresetModel::Simulated(_) if tables.cached => {
             eprintln!(

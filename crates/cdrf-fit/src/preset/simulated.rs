@@ -16,8 +16,11 @@ use crate::simulation::{
 };
 use crate::sphere::sample_sphere;
 
-/// The radii of the bundled wax photographs, mm: a preset's default sphere set.
-pub const BUNDLED_RADII_MM: [f32; 8] = [15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0];
+/// The radii of the bundled wax photographs (`data/wax-spheres`), mm: a preset's default
+/// sphere set, so that its table spans the curvatures the bundled fit's does.
+pub const BUNDLED_RADII_MM: [f32; 12] = [
+    5.0, 7.5, 10.0, 12.5, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0,
+];
 
 /// What to simulate and how to fit it.
 #[derive(Clone, Debug, PartialEq)]
