@@ -49,12 +49,16 @@ pub const PRESETS: [BuiltInPreset; 4] = [
         "wax",
         "the bundled photographs' paraffin-like wax: σt = 1 mm⁻¹, albedo 0.997 / 0.993 / 0.985, isotropic, index-matched"
     ),
-    preset!("skin1", "skin1", "Jensen et al. 2001 Skin1, η = 1.3"),
-    preset!("marble", "marble", "Jensen et al. 2001 Marble, η = 1.3"),
+    preset!("skin1", "skin1", "Jensen et al. 2001 Skin1, index-matched"),
+    preset!(
+        "marble",
+        "marble",
+        "Jensen et al. 2001 Marble, index-matched"
+    ),
     preset!(
         "wholemilk",
         "wholemilk",
-        "Jensen et al. 2001 Wholemilk, η = 1.3"
+        "Jensen et al. 2001 Wholemilk, index-matched"
     ),
 ];
 

@@ -1,6 +1,7 @@
 //! Makes the wax preset at the default quality (every sphere simulated, then fitted) and prints
 //! where the time goes and the noise the simulation reached, per sphere; then one chromatic
-//! medium (Skin1, three walks sharing the photons, η = 1.3: the boundary-ray estimator).
+//! medium (Skin1, three walks sharing the photons), both index-matched as `cdrf-preset` makes
+//! them by default.
 //!
 //! `cargo bench -p cdrf-fit --bench preset`
 //!
@@ -20,7 +21,9 @@ fn main() {
         SimulatedSettings::default().radii_mm
     );
     for name in ["wax", "skin1"] {
-        let preset = Preset::named(name).expect("named medium");
+        let preset = Preset::named(name)
+            .and_then(|p| p.with_eta(1.0))
+            .expect("named medium");
         let settings = SimulatedSettings::default();
         let started = Instant::now();
         let tables = preset.simulate(&settings, None, &|_| {}).expect("preset");

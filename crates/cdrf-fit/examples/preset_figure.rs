@@ -21,7 +21,10 @@ fn main() -> anyhow::Result<()> {
         (0..=180)
             .map(|degrees| {
                 let theta = (degrees as f32).to_radians();
-                (degrees as f32, lut.sample(1.0 / radius_mm, theta, Filter::Bilinear).x)
+                (
+                    degrees as f32,
+                    lut.sample(1.0 / radius_mm, theta, Filter::Bilinear).x,
+                )
             })
             .collect()
     };
@@ -32,15 +35,31 @@ fn main() -> anyhow::Result<()> {
     );
     plot.log_y = true;
     plot.y_range = Some((1e-4, 1.0));
-    for (radius_mm, color) in [(5.0, [200, 40, 40]), (15.0, [40, 120, 200]), (50.0, [40, 160, 60])] {
-        plot.series.push(Series::new(format!("measured, r = {radius_mm} mm"), color, curve(&measured, radius_mm)));
+    for (radius_mm, color) in [
+        (5.0, [200, 40, 40]),
+        (15.0, [40, 120, 200]),
+        (50.0, [40, 160, 60]),
+    ] {
+        plot.series.push(Series::new(
+            format!("measured, r = {radius_mm} mm"),
+            color,
+            curve(&measured, radius_mm),
+        ));
         plot.series.push(
-            Series::new(format!("simulated preset, r = {radius_mm} mm"), color, curve(simulated, radius_mm))
-                .with_style(LineStyle::Dashed),
+            Series::new(
+                format!("simulated preset, r = {radius_mm} mm"),
+                color,
+                curve(simulated, radius_mm),
+            )
+            .with_style(LineStyle::Dashed),
         );
         plot.series.push(
-            Series::new(format!("dipole preset, r = {radius_mm} mm"), color, curve(&dipole, radius_mm))
-                .with_style(LineStyle::Markers),
+            Series::new(
+                format!("dipole preset, r = {radius_mm} mm"),
+                color,
+                curve(&dipole, radius_mm),
+            )
+            .with_style(LineStyle::Markers),
         );
     }
     std::fs::write(&out, plot.to_svg())?;

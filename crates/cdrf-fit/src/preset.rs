@@ -249,7 +249,10 @@ impl Preset {
                 })?;
         let mut preset = Self::from_medium(changed)?;
         preset.name.clone_from(&self.name);
-        preset.description = format!("{} (eta changed to {eta})", self.description);
+        preset.description = self.description.replace(
+            &format!("eta = {}", medium.eta),
+            &format!("eta = {eta} (published: {})", medium.eta),
+        );
         Ok(preset)
     }
 

@@ -221,7 +221,9 @@ impl SimulationSettings {
             Some("photons must be at least batches × chunks_per_batch")
         } else if self.photons > 1 << 40 {
             Some("photons must be at most 2^40")
-        } else if !(16..=4096).contains(&self.image_size_px) || !self.image_size_px.is_multiple_of(2) {
+        } else if !(16..=4096).contains(&self.image_size_px)
+            || !self.image_size_px.is_multiple_of(2)
+        {
             Some("image_size_px must be even and in 16 … 4096")
         } else if !(self.sphere_radius_px >= 4.0
             && self.sphere_radius_px <= self.image_size_px as f32 / 2.0)

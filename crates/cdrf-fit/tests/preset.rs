@@ -154,12 +154,6 @@ fn custom_coefficients_equal_the_named_medium() {
         let (a, b) = (named.dipole_cdrf().unwrap(), custom.dipole_cdrf().unwrap());
         assert_eq!(a.profile(), b.profile(), "{}", medium.name);
         assert!(matches!(a.profile(), PresetProfile::Dipole(_)));
-        assert_eq!(
-            named.medium().unwrap(),
-            custom.medium().unwrap(),
-            "{}",
-            medium.name
-        );
         let (a, b) = (
             named.build_lut(&SMALL).unwrap(),
             custom.build_lut(&SMALL).unwrap(),
@@ -626,17 +620,16 @@ fn wax_presets_against_the_photographs() {
             percent(&old)
         );
         assert!(preset.lit.blocks > 0 && preset.shadow.blocks > 0);
-        // The issue's bounds: lit 2 %, terminator 3 % (the largest sphere reaches 3.04 %: the
-        // simulation is 1.5–2 % brighter than the photographs at the terminator of spheres of
-        // 35 mm and more, see docs/presets.md), shadow 15 % or, where the photographs' own
-        // noise puts even the fit to them above it, no worse than that fit by a point.
+        // The bounds of the issue that asked for simulated presets: lit 2 %, terminator 3 %,
+        // shadow 15 % (the fit to these very photographs reaches 15.5 % on the 50 mm sphere,
+        // whose shadow side the photographs' own noise dominates).
         assert!(preset.lit.mean_relative_error < 0.02, "{radius_mm} mm lit");
         assert!(
-            preset.terminator.mean_relative_error < 0.031,
+            preset.terminator.mean_relative_error < 0.03,
             "{radius_mm} mm terminator"
         );
         assert!(
-            preset.shadow.mean_relative_error < 0.15_f32.max(fit.shadow.mean_relative_error + 0.01),
+            preset.shadow.mean_relative_error < 0.15,
             "{radius_mm} mm shadow"
         );
         // The dipole is what the simulated spheres replace: it is far off past the terminator.

@@ -67,7 +67,9 @@ struct Args {
     )]
     g: f64,
     /// Relative index of refraction (medium over outside) of the smooth boundary; 1 for an
-    /// index-matched one. Default: the named medium's, 1.3 for --sigma-s/--sigma-a.
+    /// index-matched one. Default for simulated spheres: 1 (the diffuse term as cross-polarised
+    /// photographs see it; the renderer's specular layer adds the surface). Default for
+    /// --model dipole: the named medium's (Jensen's 1.3), 1.3 for --sigma-s/--sigma-a.
     #[arg(long, value_name = "E", allow_hyphen_values = true)]
     eta: Option<f64>,
     /// Output folder (created if missing; measured.exr and gaussian.toml in it are replaced).
@@ -149,13 +151,21 @@ fn run(args: Args) -> anyhow::Result<()> {
     let preset = match (&args.name, args.sigma_s, args.sigma_a) {
         (Some(name), _, _) => {
             let named = Preset::named(name)?;
-            match args.eta {
-                Some(eta) => named.with_eta(eta)?,
-                None => named,
+            match (args.eta, args.model) {
+                (Some(eta), _) => named.with_eta(eta)?,
+                // Simulated spheres default to the photographs' convention: index-matched.
+                (None, Model::Simulated) => named.with_eta(1.0)?,
+                (None, Model::Dipole) => named,
             }
         }
         (None, Some(sigma_s), Some(sigma_a)) => {
-            let medium = ScatteringMedium::new(sigma_s, sigma_a, args.g, args.eta.unwrap_or(1.3))?;
+            let default_eta = if args.model == Model::Simulated {
+                1.0
+            } else {
+                1.3
+            };
+            let eta = args.eta.unwrap_or(default_eta);
+            let medium = ScatteringMedium::new(sigma_s, sigma_a, args.g, eta)?;
             Preset::from_medium(medium)?
         }
         // clap's group and `requires` rule this out.
@@ -182,6 +192,15 @@ fn run(args: Args) -> anyhow::Result<()> {
             PresetModel::Simulated(settings)
         }
     };
+    if let (Model::Simulated, Ok(medium)) = (args.model, preset.medium())
+        && medium.eta != 1.0
+        && !args.quiet
+    {
+        eprintln!(
+            "note: eta {} simulates a refracting boundary with the boundary-ray estimator, whose images are noisier: the view correction needs about ten times the photons (--photons) to be as smooth as an index-matched preset's",
+            medium.eta
+        );
+    }
     let cache = if args.no_cache || args.model == Model::Dipole {
         None
     } else {

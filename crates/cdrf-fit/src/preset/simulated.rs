@@ -82,6 +82,27 @@ pub enum SimulatedFitError {
     Fit(#[from] FitError),
 }
 
+/// The views more grazing than this (φ, degrees) are left out of the fit of a medium with a
+/// refracting boundary: there the Fresnel transmittance falls to nothing (η = 1.3: 12 % is
+/// reflected at 70°, 55 % at 85°) and the view correction would divide by it.
+pub const MAX_VIEW_ANGLE_WITH_FRESNEL_DEG: f32 = 70.0;
+
+/// The silhouette margin in pixels: the fit's, and for η ≠ 1 at least what leaves views past
+/// [`MAX_VIEW_ANGLE_WITH_FRESNEL_DEG`] out.
+fn edge_margin_px(
+    medium: &ScatteringMedium,
+    sphere: &crate::simulation::SimulatedSphere,
+    settings: &SimulatedSettings,
+) -> f32 {
+    let margin = settings.fit.edge_margin_px;
+    if medium.eta == 1.0 {
+        return margin;
+    }
+    let grazing =
+        sphere.circle.radius_px * (1.0 - MAX_VIEW_ANGLE_WITH_FRESNEL_DEG.to_radians().sin());
+    margin.max(grazing)
+}
+
 /// Photons all spheres of `settings` trace for `medium` (the progress bar's length).
 pub fn total_photons(medium: &ScatteringMedium, settings: &SimulatedSettings) -> u64 {
     settings.simulation.photons * walks(medium) as u64 * settings.radii_mm.len() as u64
@@ -118,8 +139,12 @@ pub fn fit_simulated(
         })?;
         done.fetch_add(sphere.photons, Ordering::Relaxed);
         let view = sphere.view();
-        let (sphere_samples, dropped) =
-            sample_sphere(&view, &sphere.image, &light, settings.fit.edge_margin_px);
+        let (sphere_samples, dropped) = sample_sphere(
+            &view,
+            &sphere.image,
+            &light,
+            edge_margin_px(medium, &sphere, settings),
+        );
         let name = format!("simulated sphere r = {radius_mm} mm");
         if sphere_samples.len() < settings.fit.min_samples {
             return Err(FitError::TooFewSamples {
