@@ -86,7 +86,8 @@ rm -rf "${CARGO_HOME:-$HOME/.cargo}"/registry/src/-*/cdrf-*-[0-9]* \
 CARGO_PROFILE_DEV_DEBUG=false CARGO_INCREMENTAL=0 \
   cargo publish --dry-run --workspace --exclude cdrf-tests --exclude cdrf-fuzz --locked --allow-dirty --quiet
 for crate in cdrf-core cdrf-eval cdrf-fit cdrf-render cdrf-viewer; do
-  listing="$(cargo package -p "$crate" --list --locked --allow-dirty 2>/dev/null)"
+  # The built-in material tables (cdrf-core's presets/) are product, not test data.
+  listing="$(cargo package -p "$crate" --list --locked --allow-dirty 2>/dev/null | grep -v '^presets/')"
   # Test data and the bundled photographs stay out of the packages.
   if grep -qE '(^|/)(tests|data)/|\.(exr|png|obj|glb)$' <<<"$listing"; then
     echo "error: the $crate package includes test data:" >&2
