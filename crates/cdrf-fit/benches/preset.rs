@@ -33,27 +33,14 @@ fn main() {
             "\n{name}: {total:.1} s in all ({simulated:.1} s simulating, {:.1} s fitting)",
             total - simulated
         );
-        println!(
-            "radius | seconds | noise (relative standard error, worst channel): lit | terminator | shadow | θ = 150°"
-        );
-        let worst = |v: [f32; 3]| 100.0 * v.into_iter().fold(0.0, f32::max);
         for s in &tables.spheres {
-            println!(
-                "{:>5} mm | {:5.1} | {:5.2} % | {:5.2} % | {:6.2} % | {:6.2} %",
-                s.radius_mm,
-                s.seconds,
-                worst(s.noise.lit),
-                worst(s.noise.terminator),
-                worst(s.noise.shadow),
-                worst(s.noise.theta_150)
-            );
+            println!("{:>5} mm, {:5.1} s: {}", s.radius_mm, s.seconds, s.noise);
         }
         let at_15 = tables.spheres.iter().find(|s| s.radius_mm == 15.0);
         if let Some(s) = at_15 {
+            let [lit, _, _, theta_150] = s.noise.worst_percent();
             println!(
-                "goal at r = 15 mm: lit ≤ 1 % ({:.2} %), θ = 150° ≤ 5 % ({:.2} %); total ≤ 60 s ({total:.1} s)",
-                worst(s.noise.lit),
-                worst(s.noise.theta_150)
+                "goal at r = 15 mm: lit ≤ 1 % ({lit:.2} %), θ = 150° ≤ 5 % ({theta_150:.2} %); total ≤ 60 s ({total:.1} s)"
             );
         }
     }

@@ -367,13 +367,8 @@ impl Preset {
             .iter()
             .map(|s| {
                 format!(
-                    "r = {} mm: {} photons, lit {:.2} %, terminator {:.2} %, shadow {:.2} %, theta 150° {:.2} % (worst channel)",
-                    s.radius_mm,
-                    s.photons,
-                    100.0 * worst(s.noise.lit),
-                    100.0 * worst(s.noise.terminator),
-                    100.0 * worst(s.noise.shadow),
-                    100.0 * worst(s.noise.theta_150)
+                    "r = {} mm: {} photons, {} (worst channel)",
+                    s.radius_mm, s.photons, s.noise
                 )
             })
             .collect::<Vec<_>>()
@@ -567,10 +562,6 @@ impl Preset {
             }
         }
     }
-}
-
-fn worst(values: [f32; 3]) -> f32 {
-    values.into_iter().fold(0.0, f32::max)
 }
 
 /// The axes of a preset's table. `Default` is what `cdrf-preset` uses.

@@ -269,18 +269,10 @@ fn report(
             eprintln!(
                 "simulated spheres (relative standard error of the mean radiance, worst channel):"
             );
-            eprintln!("radius | photons | lit | terminator | shadow | θ = 150° | seconds");
-            let worst = |v: [f32; 3]| 100.0 * v.into_iter().fold(0.0, f32::max);
             for s in &tables.spheres {
                 eprintln!(
-                    "{:>5} mm | {} | {:.2} % | {:.2} % | {:.2} % | {:.2} % | {:.1}",
-                    s.radius_mm,
-                    s.photons,
-                    worst(s.noise.lit),
-                    worst(s.noise.terminator),
-                    worst(s.noise.shadow),
-                    worst(s.noise.theta_150),
-                    s.seconds
+                    "{:>5} mm, {} photons, {:.1} s: {}",
+                    s.radius_mm, s.photons, s.seconds, s.noise
                 );
             }
         }
