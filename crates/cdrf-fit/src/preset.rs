@@ -4,7 +4,7 @@
 //! Two models make the table:
 //! - **Simulated spheres** (the default, [`Preset::simulate`]): [`crate::simulation`] renders
 //!   the spheres a technical artist would have photographed (Monte Carlo light transport in
-//!   the medium, radii 15 … 50 mm) and the unchanged fit turns them into a table
+//!   the medium, radii 5 … 50 mm) and the unchanged fit turns them into a table
 //!   ([`simulated`]). The result is a full measured table: view correction, transmission and
 //!   diffusion profile, so every render mode works with it. It costs up to a minute; a
 //!   [`cache::PresetCache`] makes asking again free.
@@ -26,7 +26,7 @@
 //! let lut = marble.build_lut(&PresetSettings { curvature_count: 5, theta_count: 19, ..Default::default() })?;
 //! // The dipole's table: a flat surface lit head-on reflects the medium's albedo R_d (π·L/E).
 //! let flat = lut.sample(0.0, 0.0, Filter::Bilinear);
-//! assert!((f64::from(flat.x) - marble.albedo()[0]).abs() < 1e-6);
+//! assert!((f64::from(flat.x) - marble.dipole_cdrf()?.albedo()[0]).abs() < 1e-6);
 //! # Ok::<(), cdrf_fit::preset::PresetError>(())
 //! ```
 //!
@@ -384,7 +384,7 @@ impl Preset {
             .with_provenance(
                 "simulation",
                 format!(
-                    "radii_mm = {:?}, photons = {} per sphere and walk, seed = {}, image {} px with the sphere {} px in radius, batches = {}, estimator = {:?}",
+                    "radii_mm = {:?}, photons = {} per sphere (shared by the walks), seed = {}, image {} px with the sphere {} px in radius, batches = {}, estimator = {:?}",
                     settings.radii_mm,
                     sim.photons,
                     sim.seed,

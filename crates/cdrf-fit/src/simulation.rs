@@ -24,7 +24,8 @@
 //!   `|ω·L| < ε` of the plane perpendicular to the light is rotated about the axis until its
 //!   direction is the camera's, and lands in the pixel of its exit point. The band has solid
 //!   angle `4πε`; radiance is flux over pixel area and that solid angle. It handles Fresnel and
-//!   internal reflection exactly, at the cost of using only the photons in the band.
+//!   internal reflection, at the cost of using only the photons in the band; it averages the
+//!   radiance over the band's width (a bias of order ε²).
 //!
 //! Two channels share one walk when their σt are equal (the wax of the bundled data); otherwise
 //! every channel walks on its own. Work is split into fixed chunks, each with its own seeded
@@ -215,9 +216,14 @@ impl SimulationSettings {
     fn check(&self) -> Result<(), SimulationError> {
         let problem = if self.batches < 2 {
             Some("batches must be at least 2 (their spread is the noise)")
-        } else if self.chunks_per_batch == 0 || self.rotations == 0 || self.rays == 0 {
-            Some("chunks_per_batch, rotations and rays must be at least 1")
-        } else if self.photons < u64::from(self.batches * self.chunks_per_batch) {
+        } else if self.batches > 64 || self.chunks_per_batch > 256 {
+            Some("batches must be at most 64 and chunks_per_batch at most 256")
+        } else if self.chunks_per_batch == 0
+            || !(1..=64).contains(&self.rotations)
+            || !(1..=64).contains(&self.rays)
+        {
+            Some("chunks_per_batch must be at least 1, rotations and rays in 1 … 64")
+        } else if self.photons < u64::from(self.batches) * u64::from(self.chunks_per_batch) {
             Some("photons must be at least batches × chunks_per_batch")
         } else if self.photons > 1 << 40 {
             Some("photons must be at most 2^40")
@@ -316,7 +322,7 @@ pub fn simulated_light() -> Light {
 }
 
 /// Simulates the photograph of a sphere of `radius_mm` in `medium`. `progress` is called with
-/// the photons traced so far (all walks together; the total is [`walks`] × `photons`).
+/// the photons traced so far (all walks together, [`photons_traced`] in the end).
 ///
 /// # Errors
 /// When the radius or the settings are out of range.
@@ -336,6 +342,11 @@ pub fn simulate_sphere(
     } else {
         Estimator::ExitBand
     });
+    if estimator == Estimator::ViewRays && medium.eta != 1.0 {
+        return Err(SimulationError::Settings(
+            "the ViewRays estimator needs an index-matched boundary (eta = 1)",
+        ));
+    }
     let frame = Frame::new(radius_mm, settings);
     let groups = channel_groups(medium);
     let batches = settings.batches as usize;
@@ -345,7 +356,7 @@ pub fn simulate_sphere(
     // Every walk traces its share of the photons, split into batches × chunks tasks with
     // their own generators. Tasks run a window at a time and are summed in task order, so
     // the image does not depend on the thread count.
-    let per_walk = (settings.photons / groups.len() as u64).max((batches * chunks) as u64);
+    let per_walk = photons_traced(medium, settings) / groups.len() as u64;
     let flux = PI * f64::from(radius_mm).powi(2) / per_walk as f64;
     let walkers: Vec<Walk> = groups
         .iter()
@@ -409,6 +420,14 @@ pub fn simulate_sphere(
 /// Tasks traced in parallel before their images are summed (bounds the memory: one half
 /// image of `f64` RGB per task).
 const TASK_WINDOW: usize = 16;
+
+/// Photons one sphere traces: [`SimulationSettings::photons`] shared by the medium's walks
+/// (each at least one per task).
+pub fn photons_traced(medium: &ScatteringMedium, settings: &SimulationSettings) -> u64 {
+    let walks = walks(medium) as u64;
+    let tasks = u64::from(settings.batches) * u64::from(settings.chunks_per_batch);
+    (settings.photons / walks).max(tasks) * walks
+}
 
 /// How many walks a medium needs: one when its σt is the same in every channel, else three.
 pub fn walks(medium: &ScatteringMedium) -> usize {
@@ -1325,6 +1344,20 @@ mod tests {
         assert!(matches!(
             simulate_sphere(&medium, 0.0, &SimulationSettings::default(), &|_| {}),
             Err(SimulationError::Radius(_))
+        ));
+        let refracting = chromatic_medium(1.3);
+        let view_rays = quick(100, Estimator::ViewRays);
+        assert!(matches!(
+            simulate_sphere(&refracting, 4.0, &view_rays, &|_| {}),
+            Err(SimulationError::Settings(_))
+        ));
+        let huge = SimulationSettings {
+            batches: 1000,
+            ..SimulationSettings::default()
+        };
+        assert!(matches!(
+            simulate_sphere(&medium, 4.0, &huge, &|_| {}),
+            Err(SimulationError::Settings(_))
         ));
     }
 }

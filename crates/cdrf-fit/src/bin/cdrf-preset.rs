@@ -81,8 +81,8 @@ struct Args {
     /// How the table is made.
     #[arg(long, value_enum, default_value_t = Model::Simulated)]
     model: Model,
-    /// Photons per simulated sphere (three times as many walks when sigma_t differs between
-    /// channels); noise falls as 1/√photons.
+    /// Photons per simulated sphere (shared by the three channels' walks when sigma_t differs
+    /// between channels); noise falls as 1/√photons.
     #[arg(long, value_name = "N", default_value_t = SimulatedSettings::default().simulation.photons,
           value_parser = clap::value_parser!(u64).range(1000..=1_000_000_000))]
     photons: u64,

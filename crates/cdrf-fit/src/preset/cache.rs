@@ -8,6 +8,7 @@
 //! Any problem reading an entry is a miss; the tables are then simulated again.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use cdrf_core::gaussian::GaussianCdrf;
 use cdrf_core::gaussian_file::{GaussianParameters, read_gaussian, write_gaussian};
@@ -67,13 +68,20 @@ impl PresetCache {
         Some((lut, gaussian))
     }
 
-    /// Stores the tables under `key`, replacing an entry of the same key.
+    /// Stores the tables under `key`, replacing an entry of the same key (when another process
+    /// stores the same key at the same time, one of the two entries stays).
     ///
     /// # Errors
     /// When the folder cannot be created or a file written.
     pub fn store(&self, key: &str, lut: &CdrfLut, gaussian: &GaussianCdrf) -> std::io::Result<()> {
         let entry = self.entry(key);
-        let staging = self.dir.join(format!(".partial-{}", std::process::id()));
+        // Unique per call: two stores at once (threads or processes) never share a folder.
+        static STORES: AtomicU64 = AtomicU64::new(0);
+        let staging = self.dir.join(format!(
+            ".partial-{}-{}",
+            std::process::id(),
+            STORES.fetch_add(1, Ordering::Relaxed)
+        ));
         std::fs::create_dir_all(&staging)?;
         let written = (|| {
             write_lut(lut, staging.join(MEASURED_LUT)).map_err(std::io::Error::other)?;

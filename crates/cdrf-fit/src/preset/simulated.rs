@@ -12,7 +12,7 @@ use crate::curves::SphereSamples;
 use crate::fit::{Fit, FitError, FitOptions, SphereReport, Timings, fit_samples};
 use crate::simulation::{
     Estimator, ScatteringMedium, SimulationError, SimulationNoise, SimulationSettings,
-    simulate_sphere, simulated_light, walks,
+    photons_traced, simulate_sphere, simulated_light,
 };
 use crate::sphere::sample_sphere;
 
@@ -105,7 +105,7 @@ fn edge_margin_px(
 
 /// Photons all spheres of `settings` trace for `medium` (the progress bar's length).
 pub fn total_photons(medium: &ScatteringMedium, settings: &SimulatedSettings) -> u64 {
-    settings.simulation.photons * walks(medium) as u64 * settings.radii_mm.len() as u64
+    photons_traced(medium, &settings.simulation) * settings.radii_mm.len() as u64
 }
 
 /// Simulates every sphere of `settings` and fits them. `progress` gets the photons traced so
