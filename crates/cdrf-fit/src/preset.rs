@@ -39,7 +39,7 @@
 //! f(κ, θ) = R_d · D(θ, 1/κ)      per RGB channel, π·L/E,
 //! ```
 //!
-//! with `R_d` the total diffuse reflectance of the profile ([`Preset::albedo`]: for the dipole
+//! with `R_d` the total diffuse reflectance of the profile ([`DipoleCdrf::albedo`]: for the dipole
 //! [`DipoleProfile::total_diffuse_reflectance`], for d'Eon's skin the sum of the Gaussians'
 //! weights, normalised to 1: their skin is white, its colour comes from a diffuse texture).
 //! Fresnel transmission is left out: the table is the diffuse term only, as a cross-polarised
