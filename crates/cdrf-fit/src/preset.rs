@@ -311,6 +311,15 @@ impl Preset {
         })
     }
 
+    /// `lut` with the provenance every preset table carries: the tool, `source`, the preset's
+    /// name and its medium.
+    fn identified(&self, lut: CdrfLut, source: &str) -> CdrfLut {
+        lut.with_provenance("tool", format!("cdrf-preset {}", env!("CARGO_PKG_VERSION")))
+            .with_provenance("source", source)
+            .with_provenance("preset", self.name.clone())
+            .with_provenance("medium", self.description.clone())
+    }
+
     /// The dipole model (or d'Eon's Gaussians), pre-integrated.
     ///
     /// # Errors
@@ -374,13 +383,11 @@ impl Preset {
             .collect::<Vec<_>>()
             .join("; ");
         let sim = &settings.simulation;
-        let lut = fitted
-            .fit
-            .lut
-            .with_provenance("tool", format!("cdrf-preset {}", env!("CARGO_PKG_VERSION")))
-            .with_provenance("source", "preset: simulated spheres (Monte Carlo), no photographs")
-            .with_provenance("preset", self.name.clone())
-            .with_provenance("medium", self.description.clone())
+        let lut = self
+            .identified(
+                fitted.fit.lut,
+                "preset: simulated spheres (Monte Carlo), no photographs",
+            )
             .with_provenance(
                 "simulation",
                 format!(
@@ -450,13 +457,11 @@ impl Preset {
         }
         let dipole = self.dipole_cdrf()?;
         let albedo = dipole.albedo;
-        let lut = CdrfLut::tabulate(dipole, axis, settings.theta_count)
+        let table = CdrfLut::tabulate(dipole, axis, settings.theta_count)
             .map_err(PresetError::Table)?
-            .with_view_correction(ViewCorrection::identity())
-            .with_provenance("tool", format!("cdrf-preset {}", env!("CARGO_PKG_VERSION")))
-            .with_provenance("source", "preset (no photographs)")
-            .with_provenance("preset", self.name.clone())
-            .with_provenance("medium", self.description.clone())
+            .with_view_correction(ViewCorrection::identity());
+        let lut = self
+            .identified(table, "preset (no photographs)")
             .with_provenance(
                 "albedo",
                 format!(
