@@ -1113,6 +1113,16 @@ mod tests {
         }
     }
 
+    /// [`quick`] simulated, unwrapped.
+    fn simulate_quick(
+        medium: &ScatteringMedium,
+        radius_mm: f32,
+        photons: u64,
+        estimator: Estimator,
+    ) -> SimulatedSphere {
+        simulate_sphere(medium, radius_mm, &quick(photons, estimator), &|_| {}).unwrap()
+    }
+
     fn region_means(sphere: &SimulatedSphere) -> [[f64; 3]; 4] {
         let frame = Frame::new(
             sphere.radius_mm,
@@ -1163,15 +1173,9 @@ mod tests {
     #[test]
     fn the_three_estimators_agree_index_matched() {
         let medium = chromatic_medium(1.0);
-        let exits = simulate_sphere(
-            &medium,
-            4.0,
-            &quick(600_000, Estimator::ExitPhotons),
-            &|_| {},
-        )
-        .unwrap();
+        let exits = simulate_quick(&medium, 4.0, 600_000, Estimator::ExitPhotons);
         for estimator in [Estimator::ViewRays, Estimator::ExitBand] {
-            let other = simulate_sphere(&medium, 4.0, &quick(60_000, estimator), &|_| {}).unwrap();
+            let other = simulate_quick(&medium, 4.0, 60_000, estimator);
             assert_agree(
                 &exits,
                 &other,
@@ -1185,24 +1189,11 @@ mod tests {
     fn boundary_rays_follow_fresnel_and_internal_reflection() {
         // η = 1.4: the rays' Fresnel chains against the photons' own Fresnel walk.
         let medium = chromatic_medium(1.4);
-        let exits = simulate_sphere(
-            &medium,
-            4.0,
-            &quick(600_000, Estimator::ExitPhotons),
-            &|_| {},
-        )
-        .unwrap();
-        let rays =
-            simulate_sphere(&medium, 4.0, &quick(60_000, Estimator::ExitBand), &|_| {}).unwrap();
+        let exits = simulate_quick(&medium, 4.0, 600_000, Estimator::ExitPhotons);
+        let rays = simulate_quick(&medium, 4.0, 60_000, Estimator::ExitBand);
         assert_agree(&exits, &rays, 4.0, "ExitBand vs ExitPhotons at eta 1.4");
         // The boundary changes the picture: index-matched is measurably different.
-        let matched = simulate_sphere(
-            &chromatic_medium(1.0),
-            4.0,
-            &quick(60_000, Estimator::ExitBand),
-            &|_| {},
-        )
-        .unwrap();
+        let matched = simulate_quick(&chromatic_medium(1.0), 4.0, 60_000, Estimator::ExitBand);
         let (a, b) = (region_means(&rays)[0][0], region_means(&matched)[0][0]);
         assert!((a / b - 1.0).abs() > 0.05, "eta 1.4 {a} vs eta 1 {b}");
     }
@@ -1212,13 +1203,7 @@ mod tests {
         for eta in [1.0, 1.5] {
             let medium = ScatteringMedium::new([2.0; 3], [0.0; 3], 0.5, eta).unwrap();
             // The walk's own tally of escaping light, whatever the estimator: the cheapest.
-            let sphere = simulate_sphere(
-                &medium,
-                3.0,
-                &quick(20_000, Estimator::ExitPhotons),
-                &|_| {},
-            )
-            .unwrap();
+            let sphere = simulate_quick(&medium, 3.0, 20_000, Estimator::ExitPhotons);
             // What enters: the disk-averaged Fresnel transmittance 2∫(1 − F(μ)) μ dμ.
             let steps = 20_000;
             let entering: f64 = (0..steps)
@@ -1264,13 +1249,7 @@ mod tests {
         // §59), averaged over the disk the beam falls on (weight 2μ0).
         let a: f64 = 0.8;
         let medium = ScatteringMedium::new([a; 3], [1.0 - a; 3], 0.0, 1.0).unwrap();
-        let sphere = simulate_sphere(
-            &medium,
-            300.0,
-            &quick(40_000, Estimator::ExitPhotons),
-            &|_| {},
-        )
-        .unwrap();
+        let sphere = simulate_quick(&medium, 300.0, 40_000, Estimator::ExitPhotons);
         let steps = 200;
         let expected: f64 = (0..steps)
             .map(|i| {
