@@ -1,6 +1,7 @@
 //! Curvature throughput on a ≥ 1M-vertex mesh, parallel vs one thread, and accuracy against the
-//! analytic torus; the time to cut that mesh into the inter-reflection's patches.
-//! `cargo bench -p cdrf-core --bench curvature`.
+//! analytic torus; the time to cut that mesh into the inter-reflection's patches; the cost of
+//! filtering curvature over 5 mm on a 10 000- and a 163 842-vertex mesh.
+//! `cargo bench -p cdrf-core --bench curvature`; `… -- torus` or `… -- filter` runs one part.
 //!
 //! With `CDRF_BENCH_EXPORT=DIR` it also writes, for the big torus and the analytic test shapes,
 //! `NAME.obj`, `NAME.truth.txt` (analytic mean curvature per vertex), `NAME.cdrf.txt` (this
@@ -13,7 +14,9 @@ use std::io::Write;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use cdrf_core::curvature::{CurvatureOptions, mean_curvature_per_mm, mean_curvature_per_mm_welded};
+use cdrf_core::curvature::{
+    CurvatureOptions, curvature_per_mm, mean_curvature_per_mm, mean_curvature_per_mm_welded,
+};
 use cdrf_core::mesh::Mesh;
 use cdrf_core::patches::SurfacePatches;
 use common::{ellipsoid_mean_curvature, irregular_ellipsoid, relative_error, torus_mean_curvature};
@@ -33,6 +36,85 @@ fn best_time<T>(runs: usize, mut f: impl FnMut() -> T) -> (Duration, T) {
 }
 
 fn main() {
+    // Arguments not starting with `--` (cargo passes `--bench`) name the parts to run.
+    let parts: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .collect();
+    let run = |part: &str| parts.is_empty() || parts.iter().any(|p| p == part);
+    if run("torus") {
+        torus();
+    }
+    if run("filter") {
+        filter();
+    }
+}
+
+/// Filtering curvature over 5 mm (`CurvatureOptions::filter_length_mm`): the time it adds to
+/// the estimate, for the mean curvature alone and with the anisotropy (whose six tensor
+/// components are filtered too). The large mesh is timed once per setting.
+fn filter() {
+    let threads = rayon::current_num_threads();
+    let radii = Vec3::new(60.0, 40.0, 20.0);
+    let length_mm = 5.0;
+    let plain = CurvatureOptions::default();
+    let filtered = plain.with_filter_length_mm(length_mm);
+    for (name, mesh, runs) in [
+        (
+            "3:2:1 ellipsoid (60 mm), hull of 10 000 random points",
+            irregular_ellipsoid(radii, 10_000, 1),
+            5,
+        ),
+        (
+            "3:2:1 ellipsoid (60 mm), icosphere subdivided 7 times",
+            Mesh::ellipsoid(radii, 7),
+            1,
+        ),
+    ] {
+        let edge_sum: f32 = mesh
+            .triangles
+            .iter()
+            .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+            .map(|(a, b)| (mesh.positions[a as usize] - mesh.positions[b as usize]).length())
+            .sum();
+        let mean_edge = edge_sum / (3 * mesh.triangles.len()) as f32;
+        println!(
+            "{name}: {} vertices, mean edge {mean_edge:.2} mm, filter {length_mm} mm \
+             ({:.1} edges), {threads} threads",
+            mesh.positions.len(),
+            length_mm / mean_edge
+        );
+        let mean = |options| {
+            best_time(runs, || {
+                mean_curvature_per_mm_welded(&mesh.positions, &mesh.triangles, options)
+                    .expect("valid mesh")
+            })
+            .0
+        };
+        let full = |options| {
+            best_time(runs, || {
+                curvature_per_mm(&mesh, options).expect("valid mesh")
+            })
+            .0
+        };
+        let (mean_plain, mean_filtered) = (mean(&plain), mean(&filtered));
+        let (full_plain, full_filtered) = (full(&plain), full(&filtered));
+        println!(
+            "  mean curvature: estimate {:7.3} s, filtered {:7.3} s: the filter adds {:7.3} s",
+            mean_plain.as_secs_f64(),
+            mean_filtered.as_secs_f64(),
+            mean_filtered.as_secs_f64() - mean_plain.as_secs_f64()
+        );
+        println!(
+            "  with anisotropy: estimate {:7.3} s, filtered {:7.3} s: the filter adds {:7.3} s",
+            full_plain.as_secs_f64(),
+            full_filtered.as_secs_f64(),
+            full_filtered.as_secs_f64() - full_plain.as_secs_f64()
+        );
+    }
+}
+
+fn torus() {
     let export = std::env::var_os("CDRF_BENCH_EXPORT").map(std::path::PathBuf::from);
     let options = CurvatureOptions::default();
     let one_thread = rayon::ThreadPoolBuilder::new()
