@@ -295,6 +295,34 @@ pub struct Curvature {
     pub anisotropy_per_mm: Vec<Vec3>,
 }
 
+/// The mean length of `mesh`'s triangle edges in mm (each edge counted once per face using
+/// it; degenerate faces left out), 0 for a mesh without a face of non-zero area. The scale a
+/// curvature estimate resolves: its noise on a coarse mesh lies at about this length.
+pub fn mean_edge_length_mm(mesh: &Mesh, mm_per_unit: f32) -> f32 {
+    let (sum, count) = mesh
+        .triangles
+        .iter()
+        .fold((0.0f64, 0usize), |(sum, count), t| {
+            let p = t.map(|i| {
+                mesh.positions
+                    .get(i as usize)
+                    .copied()
+                    .unwrap_or(Vec3::ZERO)
+                    .as_dvec3()
+            });
+            if (p[1] - p[0]).cross(p[2] - p[0]).length() > 0.0 {
+                let perimeter: f64 = (0..3).map(|k| (p[(k + 1) % 3] - p[k]).length()).sum();
+                (sum + perimeter, count + 3)
+            } else {
+                (sum, count)
+            }
+        });
+    if count == 0 || !sum.is_finite() {
+        return 0.0;
+    }
+    (sum / count as f64 * f64::from(mm_per_unit)) as f32
+}
+
 /// The normal curvature of the surface along the tangent part of `direction`, blended toward the
 /// mean curvature as `direction` turns toward the normal:
 /// `κ = H + 2 (d·a)²/|a| − |a|·(1 − (d·n)²)`, with `a` the anisotropy ([`Curvature`]) and `n` the

@@ -448,6 +448,23 @@ impl CdrfLut {
         self.diffusion_profile.as_ref()
     }
 
+    /// How far the material's light travels under the surface, mm: the longest channel's mean
+    /// distance of the diffusion profile ([`DiffusionProfile::mean_distance_mm`]), else of the
+    /// translucency's scattering length; `None` when the table has neither. The length a
+    /// renderer filters the mesh's curvature over (see [`crate::curvature`]).
+    pub fn diffusion_length_mm(&self) -> Option<f32> {
+        let longest = |lengths: [f32; 3]| lengths.into_iter().fold(0.0f32, f32::max);
+        self.diffusion_profile
+            .as_ref()
+            .map(|profile| longest(profile.mean_distance_mm()))
+            .or_else(|| {
+                self.translucency
+                    .as_ref()
+                    .map(|t| longest(t.scattering_length_mm))
+            })
+            .filter(|length| *length > 0.0)
+    }
+
     /// Records where the table came from (tool, input folder, date, …). Stored in the file.
     pub fn with_provenance(mut self, key: impl Into<String>, value: impl Into<String>) -> Self {
         self.provenance.insert(key.into(), value.into());

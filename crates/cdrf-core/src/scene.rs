@@ -93,6 +93,9 @@ pub struct MeshSpec {
     /// Rounds of smoothing of the per-vertex curvature
     /// ([`CurvatureOptions::with_smoothing_iterations`]); 0 = none.
     pub curvature_smoothing: u32,
+    /// The length the curvature is filtered over, mm ([`CurvatureOptions::with_filter_length_mm`]):
+    /// `None` = the material's [`Material::diffusion_length_mm`], 0 = no filter.
+    pub curvature_filter_mm: Option<f32>,
 }
 
 /// Uniform scale, then rotations about x, y and z, then translation.
@@ -263,7 +266,39 @@ pub enum Material {
     },
 }
 
+/// The curvature filter a scene uses without `[mesh] curvature_filter_mm`, in the mesh's own
+/// mm (model mm, before the draw's `scale`): the material's [`Material::diffusion_length_mm`]
+/// (world mm), but no longer than the mesh's mean edge ([`crate::curvature::mean_edge_length_mm`]). A coarse mesh's estimate is noisy at its
+/// edge length, and light averages the surface over the material's length, so the filter
+/// takes out what neither resolves; on a mesh finer than that the estimate is kept nearly as
+/// it is (the tables were measured at exact curvature, and filtering a fine knot over the whole
+/// diffusion length made it farther from its path-traced reference: docs/research).
+pub fn default_curvature_filter_mm(
+    material: &Material,
+    mesh: &Mesh,
+    mm_per_unit: f32,
+    scale: f32,
+) -> f32 {
+    material.diffusion_length_mm().map_or(0.0, |world_mm| {
+        (world_mm / scale).min(crate::curvature::mean_edge_length_mm(mesh, mm_per_unit))
+    })
+}
+
 impl Material {
+    /// How far the material's light travels under the surface, mm (the measured table's
+    /// [`CdrfLut::diffusion_length_mm`], the Gaussian's largest σ); `None` for Lambert and the
+    /// curvature view. A scene filters its mesh's curvature over it unless `[mesh]
+    /// curvature_filter_mm` says otherwise.
+    pub fn diffusion_length_mm(&self) -> Option<f32> {
+        match self {
+            Material::Measured(lut) => lut.diffusion_length_mm(),
+            Material::Gaussian { model, .. } => {
+                Some(model.sigma_mm().into_iter().fold(0.0f32, f32::max)).filter(|s| *s > 0.0)
+            }
+            Material::Lambert { .. } | Material::Curvature { .. } => None,
+        }
+    }
+
     /// The model this is.
     pub fn model(&self) -> ShadingModel {
         match self {
@@ -417,6 +452,8 @@ struct RawMesh {
     translate: [f32; 3],
     #[serde(default)]
     curvature_smoothing: u32,
+    #[serde(default)]
+    curvature_filter_mm: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -528,6 +565,7 @@ pub const KEYS: &[&str] = &[
     "[mesh] rotate_deg",
     "[mesh] translate",
     "[mesh] curvature_smoothing",
+    "[mesh] curvature_filter_mm",
     "[camera] projection",
     "[camera] eye",
     "[camera] target",
@@ -621,6 +659,14 @@ impl Scene {
                 ),
             ));
         }
+        if let Some(length) = m.curvature_filter_mm
+            && !(length.is_finite() && length >= 0.0)
+        {
+            return Err(invalid(
+                "[mesh] curvature_filter_mm",
+                format!("{length}: must be finite and ≥ 0 (0: no filter)"),
+            ));
+        }
         finite3("[mesh] rotate_deg", m.rotate_deg)?;
         finite3("[mesh] translate", m.translate)?;
         let mesh = MeshSpec {
@@ -632,6 +678,7 @@ impl Scene {
                 translate: m.translate,
             },
             curvature_smoothing: m.curvature_smoothing,
+            curvature_filter_mm: m.curvature_filter_mm,
         };
 
         let c = raw.camera;
@@ -1058,17 +1105,7 @@ impl Scene {
         let (repaired, surfaces) = Mesh::load_with_surfaces(&self.mesh.path)
             .map_err(|error| SceneError::Mesh { error })?;
         let mesh = repaired.mesh;
-        let curvature = curvature_per_mm(
-            &mesh,
-            &CurvatureOptions::new(self.mesh.mm_per_unit)
-                .with_smoothing_iterations(self.mesh.curvature_smoothing),
-        )
-        .map_err(|error| SceneError::Curvature {
-            mesh: self.mesh.path.clone(),
-            error,
-        })?;
-        let curvature_per_mm = curvature.mean_per_mm;
-        let material = match &self.shading {
+        let mut material = match &self.shading {
             ShadingSpec::Measured { lut: path } => {
                 let lut = read_lut(path).map_err(|error| SceneError::Lut { error })?;
                 if self.non_local.subsurface && lut.diffusion_profile().is_none() {
@@ -1087,16 +1124,36 @@ impl Scene {
                 }
             }
             ShadingSpec::Lambert { albedo } => Material::Lambert { albedo: *albedo },
-            ShadingSpec::Curvature { range_per_mm } => {
-                let range_per_mm = range_per_mm.unwrap_or_else(|| {
-                    let largest = curvature_per_mm.iter().fold(0.0f32, |m, k| m.max(k.abs()))
-                        / self.mesh.transform.scale;
-                    let largest = if largest > 0.0 { largest } else { 1.0 };
-                    [-largest, largest]
-                });
-                Material::Curvature { range_per_mm }
-            }
+            ShadingSpec::Curvature { .. } => Material::Curvature {
+                range_per_mm: [-1.0, 1.0],
+            },
         };
+        // The key is in world mm; the estimate runs in the mesh's own (model) mm.
+        let scale = self.mesh.transform.scale;
+        let filter_mm = self.mesh.curvature_filter_mm.map_or_else(
+            || default_curvature_filter_mm(&material, &mesh, self.mesh.mm_per_unit, scale),
+            |world_mm| world_mm / scale,
+        );
+        let curvature = curvature_per_mm(
+            &mesh,
+            &CurvatureOptions::new(self.mesh.mm_per_unit)
+                .with_smoothing_iterations(self.mesh.curvature_smoothing)
+                .with_filter_length_mm(filter_mm),
+        )
+        .map_err(|error| SceneError::Curvature {
+            mesh: self.mesh.path.clone(),
+            error,
+        })?;
+        let curvature_per_mm = curvature.mean_per_mm;
+        if let ShadingSpec::Curvature { range_per_mm } = &self.shading {
+            let range_per_mm = range_per_mm.unwrap_or_else(|| {
+                let largest = curvature_per_mm.iter().fold(0.0f32, |m, k| m.max(k.abs()))
+                    / self.mesh.transform.scale;
+                let largest = if largest > 0.0 { largest } else { 1.0 };
+                [-largest, largest]
+            });
+            material = Material::Curvature { range_per_mm };
+        }
         Ok(SceneAssets {
             mesh,
             curvature_per_mm,

@@ -221,6 +221,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                 mm_per_unit,
                 transform: ModelTransform::default(),
                 curvature_smoothing: 0,
+                curvature_filter_mm: None,
             },
             camera: Camera {
                 projection: Projection::Orthographic { half_height },

@@ -19,8 +19,6 @@ fn cs_vertex_terms(
         return;
     }
     let v = mesh_vertex(i);
-    // The shadow test's local shape keeps the mean curvature, not the curvature along the
-    // light: a saddle would switch between sphere and tangent plane from vertex to vertex.
     var lights: array<NonLocalTerms, MAX_SHADOW_LIGHTS>;
     for (var k = 0u; k < MAX_SHADOW_LIGHTS; k++) {
         lights[k] = no_terms();
@@ -81,6 +79,19 @@ fn cs_vertex_terms(
     terms_out[i] = terms;
 }
 
+// The curvature of the local shape the shadow test and the gather compare the light map with
+// (light_space.wgsl's local_shape): where the mean curvature is positive, the smaller of it and
+// the curvature along the light (a plane where that is ≤ 0). A body curving slowly along the
+// light (an egg lit from one end) meets the light farther out than its mean-curvature sphere,
+// which would call its own surface an occluder past the terminator; never more than the mean,
+// so a tube lit across keeps its sphere. Negative mean curvature is kept as it is.
+fn shadow_shape_curvature_per_mm(mean_per_mm: f32, along_light_per_mm: f32) -> f32 {
+    if mean_per_mm <= 0.0 {
+        return mean_per_mm;
+    }
+    return max(min(mean_per_mm, along_light_per_mm), 0.0);
+}
+
 // The per-vertex terms of shadowed light `index`: visibility and T(d, μ) from the shadow map,
 // or with the subsurface gather G (scaled on the shadow side by s(κ, θ)) instead of T.
 fn vertex_non_local(
@@ -91,14 +102,18 @@ fn vertex_non_local(
     light_curvature_per_mm: f32,
 ) -> NonLocalTerms {
     var terms = no_terms();
+    let shape_curvature_per_mm = shadow_shape_curvature_per_mm(
+        curvature_per_mm,
+        light_curvature_per_mm,
+    );
     if SHADOWS || TRANSMISSION {
-        terms = non_local_terms(index, world_position, normal, curvature_per_mm);
+        terms = non_local_terms(index, world_position, normal, shape_curvature_per_mm);
     }
     if gathers_subsurface() {
         let shape = local_shape(
             light_frame_point(index, world_position),
             light_frame_vector(index, normal),
-            curvature_per_mm,
+            shape_curvature_per_mm,
         );
         terms.gather = subsurface_gather(index, shape);
         let v = terms.visibility;
