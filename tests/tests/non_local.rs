@@ -457,7 +457,12 @@ fn a_coarse_mesh_does_not_blotch_at_the_materials_scale() {
     let light = Vec3::new(-1.0, 0.3, 0.4);
     let roughness_of = |mesh: &Mesh, filtered: bool| {
         let length_mm = if filtered {
-            cdrf_core::scene::default_curvature_filter_mm(&material, mesh, 1.0, 1.0)
+            cdrf_core::curvature::material_filter_length_mm(
+                material.diffusion_length_mm(),
+                mesh,
+                1.0,
+                1.0,
+            )
         } else {
             0.0
         };

@@ -266,24 +266,6 @@ pub enum Material {
     },
 }
 
-/// The curvature filter a scene uses without `[mesh] curvature_filter_mm`, in the mesh's own
-/// mm (model mm, before the draw's `scale`): the material's [`Material::diffusion_length_mm`]
-/// (world mm), but no longer than the mesh's mean edge ([`crate::curvature::mean_edge_length_mm`]). A coarse mesh's estimate is noisy at its
-/// edge length, and light averages the surface over the material's length, so the filter
-/// takes out what neither resolves; on a mesh finer than that the estimate is kept nearly as
-/// it is (the tables were measured at exact curvature, and filtering a fine knot over the whole
-/// diffusion length made it farther from its path-traced reference: docs/research).
-pub fn default_curvature_filter_mm(
-    material: &Material,
-    mesh: &Mesh,
-    mm_per_unit: f32,
-    scale: f32,
-) -> f32 {
-    material.diffusion_length_mm().map_or(0.0, |world_mm| {
-        (world_mm / scale).min(crate::curvature::mean_edge_length_mm(mesh, mm_per_unit))
-    })
-}
-
 impl Material {
     /// How far the material's light travels under the surface, mm (the measured table's
     /// [`CdrfLut::diffusion_length_mm`], the Gaussian's largest σ); `None` for Lambert and the
@@ -1131,7 +1113,14 @@ impl Scene {
         // The key is in world mm; the estimate runs in the mesh's own (model) mm.
         let scale = self.mesh.transform.scale;
         let filter_mm = self.mesh.curvature_filter_mm.map_or_else(
-            || default_curvature_filter_mm(&material, &mesh, self.mesh.mm_per_unit, scale),
+            || {
+                crate::curvature::material_filter_length_mm(
+                    material.diffusion_length_mm(),
+                    &mesh,
+                    self.mesh.mm_per_unit,
+                    scale,
+                )
+            },
             |world_mm| world_mm / scale,
         );
         let curvature = curvature_per_mm(

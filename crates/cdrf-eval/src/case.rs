@@ -20,6 +20,10 @@ pub struct CaseSpec {
     /// What the reference shows (`reference_layer`; default the whole material).
     #[serde(default)]
     pub reference_layer: ReferenceLayer,
+    /// The cdrf-fit output folder (`measured.exr`, `gaussian.toml`) of this case's material
+    /// (`fit`; default: the run's): a case of another medium than the run's fit.
+    #[serde(default)]
+    pub fit: Option<PathBuf>,
 }
 
 /// What a case's reference shows, and so which models it is compared with.
@@ -79,6 +83,7 @@ pub fn read_manifest(path: &Path) -> Result<Vec<CaseSpec>, CompareError> {
             reference: base.join(&case.reference),
             name: case.name,
             reference_layer: case.reference_layer,
+            fit: case.fit.map(|fit| base.join(fit)),
         })
         .collect())
 }

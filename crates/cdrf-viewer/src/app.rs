@@ -416,12 +416,61 @@ impl ViewerApp {
     }
 
     fn set_mesh(&mut self, mesh: LoadedMesh, mm_per_unit: Option<f32>) {
+        self.settings.mm_per_unit = match mm_per_unit {
+            Some(scale) => scale,
+            None => {
+                let scale = mesh.suggested_mm_per_unit();
+                self.status = Some(format!(
+                    "{}: {scale} mm per unit ({:.0} mm across); change it under Mesh",
+                    file_name(&mesh.path),
+                    mesh.extent.max_element() * scale
+                ));
+                scale
+            }
+        };
+        self.applied.mm_per_unit = self.settings.mm_per_unit;
+        self.mesh = Some(mesh);
+        self.filter_curvature(true);
+        self.frame_on_next_view = true;
+        self.hover = None;
+        self.refresh_curvature_material();
+    }
+
+    /// Filters the mesh's curvature at the measured material's scale at the current mm per unit
+    /// (cdrf-core's `material_filter_length_mm`, as a scene file's default) and uploads the
+    /// mesh when that changed its curvature or `upload` asks.
+    fn filter_curvature(&mut self, upload: bool) {
+        let length_mm = self
+            .lut
+            .as_ref()
+            .and_then(|loaded| loaded.lut.diffusion_length_mm());
+        let scale = self.settings.mm_per_unit;
+        let Some(mesh) = self.mesh.as_mut() else {
+            return;
+        };
+        let units =
+            cdrf_core::curvature::material_filter_length_mm(length_mm, &mesh.mesh, 1.0, scale);
+        let changed = units != mesh.curvature_filter_units;
+        if changed && let Err(error) = mesh.filter_curvature(units) {
+            self.error = Some(error.to_string());
+            return;
+        }
+        if changed || upload {
+            self.upload_mesh();
+        }
+    }
+
+    /// Replaces the renderer's copy of the mesh (and its surfaces) with `self.mesh`.
+    fn upload_mesh(&mut self) {
         let (device, queue) = (
             self.render_state.device.clone(),
             self.render_state.queue.clone(),
         );
         let old = self.ids.mesh.take();
         let old_surfaces = std::mem::take(&mut self.ids.surfaces);
+        let Some(mesh) = self.mesh.take() else {
+            return;
+        };
         let uploaded = self.with_gpu(|gpu| {
             if let Some(old) = old {
                 gpu.renderer.remove_mesh(old);
@@ -455,30 +504,13 @@ impl ViewerApp {
             Some(Ok((id, surfaces))) => {
                 self.ids.mesh = Some(id);
                 self.ids.surfaces = surfaces;
+                self.mesh = Some(mesh);
             }
             Some(Err(error)) => {
                 self.error = Some(format!("{}: {error}", mesh.path.display()));
-                return;
             }
-            None => {}
+            None => self.mesh = Some(mesh),
         }
-        self.settings.mm_per_unit = match mm_per_unit {
-            Some(scale) => scale,
-            None => {
-                let scale = mesh.suggested_mm_per_unit();
-                self.status = Some(format!(
-                    "{}: {scale} mm per unit ({:.0} mm across); change it under Mesh",
-                    file_name(&mesh.path),
-                    mesh.extent.max_element() * scale
-                ));
-                scale
-            }
-        };
-        self.applied.mm_per_unit = self.settings.mm_per_unit;
-        self.frame_on_next_view = true;
-        self.mesh = Some(mesh);
-        self.hover = None;
-        self.refresh_curvature_material();
     }
 
     /// Whether the mesh has glTF materials of its own (else every primitive is the default).
@@ -534,6 +566,7 @@ impl ViewerApp {
         self.lut_image = None;
         self.material = material_name(&lut.path);
         self.lut = Some(lut);
+        self.filter_curvature(false);
         self.refresh_lambert_material();
     }
 
@@ -909,6 +942,7 @@ impl ViewerApp {
             let ratio = scale / applied_scale;
             self.camera.target *= ratio;
             self.camera.distance_mm *= ratio;
+            self.filter_curvature(false);
             self.refresh_curvature_material();
         }
         self.applied.mm_per_unit = scale;

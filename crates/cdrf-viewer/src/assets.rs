@@ -90,6 +90,11 @@ pub struct LoadedMesh {
     /// The curvature's anisotropy per vertex, per model unit (cdrf-core's
     /// `Curvature::anisotropy_per_mm` at 1 mm per unit).
     pub curvature_anisotropy_per_unit: Vec<Vec3>,
+    /// Rounds of smoothing the curvature had.
+    pub curvature_smoothing: u32,
+    /// The length the curvature is filtered over, model units (0: none; see
+    /// [`LoadedMesh::filter_curvature`]).
+    pub curvature_filter_units: f32,
     /// Centre of the bounding box, model units.
     pub center: Vec3,
     /// Radius of the bounding sphere around `center`, model units.
@@ -101,6 +106,26 @@ pub struct LoadedMesh {
 }
 
 impl LoadedMesh {
+    /// Re-estimates the curvature filtered over `length_units` model units (0: none; cdrf-core's
+    /// `CurvatureOptions::with_filter_length_mm` at 1 mm per unit), keeping the smoothing.
+    ///
+    /// # Errors
+    /// [`AssetError::Curvature`].
+    pub fn filter_curvature(&mut self, length_units: f32) -> Result<(), AssetError> {
+        let options = CurvatureOptions::new(1.0)
+            .with_smoothing_iterations(self.curvature_smoothing)
+            .with_filter_length_mm(length_units);
+        let curvature =
+            curvature_per_mm(&self.mesh, &options).map_err(|error| AssetError::Curvature {
+                path: self.path.clone(),
+                error,
+            })?;
+        self.curvature_per_unit = curvature.mean_per_mm;
+        self.curvature_anisotropy_per_unit = curvature.anisotropy_per_mm;
+        self.curvature_filter_units = length_units;
+        Ok(())
+    }
+
     /// Reads an OBJ or glTF file with its materials and textures and estimates its curvature
     /// (on the welded geometry: UV seams do not cut it), smoothed `curvature_smoothing` rounds.
     ///
@@ -140,6 +165,8 @@ impl LoadedMesh {
             path: path.to_owned(),
             curvature_per_unit: curvature.mean_per_mm,
             curvature_anisotropy_per_unit: curvature.anisotropy_per_mm,
+            curvature_smoothing,
+            curvature_filter_units: 0.0,
             center,
             radius,
             extent: max - min,

@@ -349,6 +349,20 @@ fn compare(args: &CompareArgs) -> anyhow::Result<()> {
     for case in &cases {
         inputs.extend([case.scene.clone(), case.reference.clone()]);
     }
+    // Cases of another medium bring their own fit (`fit` in the manifest).
+    let mut case_models = Vec::with_capacity(cases.len());
+    for case in &cases {
+        case_models.push(match &case.fit {
+            Some(fit) => {
+                inputs.extend([fit.join(FIT_LUT_FILE), fit.join(FIT_GAUSSIAN_FILE)]);
+                Some(Models::from_files(
+                    &fit.join(FIT_LUT_FILE),
+                    &fit.join(FIT_GAUSSIAN_FILE),
+                )?)
+            }
+            None => None,
+        });
+    }
     let staged = StagedOutputs::new(&output_paths, &inputs)?;
     let preference = if args.software {
         AdapterPreference::Software
@@ -358,12 +372,12 @@ fn compare(args: &CompareArgs) -> anyhow::Result<()> {
     let device = HeadlessDevice::new(preference)?;
     eprintln!("adapter: {}", device.adapter_description());
     let mut results = Vec::new();
-    for case in &cases {
+    for (case, own_models) in cases.iter().zip(&case_models) {
         eprintln!("case {}: rendering and comparing", case.name);
         results.push(run_case(
             &device,
             case,
-            &models,
+            own_models.as_ref().unwrap_or(&models),
             args.size,
             args.curvature_smoothing,
         )?);
