@@ -68,8 +68,12 @@ fn case_table(result: &CaseResult) -> String {
 
 /// What a case is: its name, size and Lambert albedo (a table's caption).
 fn case_caption(result: &CaseResult) -> String {
+    let fit = result
+        .fit
+        .as_ref()
+        .map_or_else(String::new, |fit| format!("; models of its own fit, {fit}"));
     format!(
-        "{} × {} px; Lambert albedo {:.3} {:.3} {:.3}",
+        "{} × {} px; Lambert albedo {:.3} {:.3} {:.3}{fit}",
         result.width,
         result.height,
         result.lambert_albedo[0],

@@ -66,6 +66,9 @@ pub struct CaseResult {
     pub exposure: f32,
     /// Lambert's albedo used.
     pub lambert_albedo: [f32; 3],
+    /// The case's own fit folder (`fit` in the manifest), when not the run's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fit: Option<String>,
     /// The models compared, in the order of every per-model list here.
     pub models: Vec<ComparedModel>,
     /// One row per region.

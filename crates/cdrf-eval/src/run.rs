@@ -252,6 +252,11 @@ pub fn run_case(
         height,
         exposure,
         lambert_albedo: models.lambert_albedo,
+        fit: case
+            .fit
+            .as_ref()
+            .and_then(|fit| fit.file_name())
+            .map(|name| name.to_string_lossy().into_owned()),
         models: models_compared.to_vec(),
         regions,
         theta,

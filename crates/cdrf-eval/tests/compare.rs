@@ -264,3 +264,16 @@ fn every_term_meets_the_knot_targets() {
         assert!(rmse < whole, "{name}: whole object {rmse}");
     }
 }
+
+/// A case of another medium names its own fit, relative to the manifest; the others use the
+/// run's. The Skin1 cases' fit loads, and is not the wax's.
+#[test]
+fn a_case_of_another_medium_brings_its_own_fit() {
+    let skin = case("blob_skin1_side");
+    let fit = skin.fit.clone().expect("the Skin1 case names its fit");
+    assert_eq!(fit, data_dir().join("skin1-fit"));
+    let skin_models = Models::from_files(&fit.join("measured.exr"), &fit.join("gaussian.toml"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_ne!(skin_models.lambert_albedo, models().lambert_albedo);
+    assert_eq!(case("blob_side").fit, None);
+}
