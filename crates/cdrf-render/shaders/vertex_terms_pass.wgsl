@@ -81,15 +81,17 @@ fn cs_vertex_terms(
 
 // The curvature of the local shape the shadow test and the gather compare the light map with
 // (light_space.wgsl's local_shape): where the mean curvature is positive, the smaller of it and
-// the curvature along the light (a plane where that is ≤ 0). A body curving slowly along the
-// light (an egg lit from one end) meets the light farther out than its mean-curvature sphere,
-// which would call its own surface an occluder past the terminator; never more than the mean,
-// so a tube lit across keeps its sphere. Negative mean curvature is kept as it is.
+// the curvature along the light, but at least a quarter of the mean. A body curving slowly
+// along the light (an egg lit from one end) meets the light farther out than its
+// mean-curvature sphere, which would call its own surface an occluder past the terminator;
+// never more than the mean, so a tube lit across keeps its sphere; never a plane, whose
+// facing test flips at θ = 90° (bright dashes along a torus's terminator). Negative mean
+// curvature is kept as it is.
 fn shadow_shape_curvature_per_mm(mean_per_mm: f32, along_light_per_mm: f32) -> f32 {
     if mean_per_mm <= 0.0 {
         return mean_per_mm;
     }
-    return max(min(mean_per_mm, along_light_per_mm), 0.0);
+    return max(min(mean_per_mm, along_light_per_mm), 0.25 * mean_per_mm);
 }
 
 // The per-vertex terms of shadowed light `index`: visibility and T(d, μ) from the shadow map,
