@@ -299,28 +299,31 @@ pub struct Curvature {
 /// it; degenerate faces left out), 0 for a mesh without a face of non-zero area. The scale a
 /// curvature estimate resolves: its noise on a coarse mesh lies at about this length.
 pub fn mean_edge_length_mm(mesh: &Mesh, mm_per_unit: f32) -> f32 {
-    let (sum, count) = mesh
-        .triangles
-        .iter()
-        .fold((0.0f64, 0usize), |(sum, count), t| {
-            let p = t.map(|i| {
-                mesh.positions
-                    .get(i as usize)
-                    .copied()
-                    .unwrap_or(Vec3::ZERO)
-                    .as_dvec3()
-            });
-            if (p[1] - p[0]).cross(p[2] - p[0]).length() > 0.0 {
-                let perimeter: f64 = (0..3).map(|k| (p[(k + 1) % 3] - p[k]).length()).sum();
-                (sum + perimeter, count + 3)
-            } else {
-                (sum, count)
-            }
+    mean_edge_length_units(&mesh.positions, &mesh.triangles)
+        .map_or(0.0, |units| (units * f64::from(mm_per_unit)) as f32)
+}
+
+/// The mean edge length of `triangles` in model units, each edge counted once per face using
+/// it, over the faces of non-zero, finite area; `None` without such a face (or for a sum that
+/// overflows). Indices past `positions` count as the origin (validated input has none).
+pub(crate) fn mean_edge_length_units(positions: &[Vec3], triangles: &[[u32; 3]]) -> Option<f64> {
+    let (sum, count) = triangles.iter().fold((0.0f64, 0usize), |(sum, count), t| {
+        let p = t.map(|i| {
+            positions
+                .get(i as usize)
+                .copied()
+                .unwrap_or(Vec3::ZERO)
+                .as_dvec3()
         });
-    if count == 0 || !sum.is_finite() {
-        return 0.0;
-    }
-    (sum / count as f64 * f64::from(mm_per_unit)) as f32
+        let double_area = (p[1] - p[0]).cross(p[2] - p[0]).length();
+        if double_area > 0.0 && double_area.is_finite() {
+            let perimeter: f64 = (0..3).map(|k| (p[(k + 1) % 3] - p[k]).length()).sum();
+            (sum + perimeter, count + 3)
+        } else {
+            (sum, count)
+        }
+    });
+    (count > 0 && sum.is_finite()).then(|| sum / count as f64)
 }
 
 /// The filter length for a material whose light travels `diffusion_length_mm` under the surface

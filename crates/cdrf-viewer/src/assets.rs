@@ -145,12 +145,6 @@ impl LoadedMesh {
     /// # Errors
     /// [`AssetError::Curvature`].
     pub fn new(path: &Path, mesh: Mesh, curvature_smoothing: u32) -> Result<Self, AssetError> {
-        let options = CurvatureOptions::new(1.0).with_smoothing_iterations(curvature_smoothing);
-        let curvature =
-            curvature_per_mm(&mesh, &options).map_err(|error| AssetError::Curvature {
-                path: path.to_owned(),
-                error,
-            })?;
         let (min, max) = mesh.positions.iter().fold(
             (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
             |(min, max), &p| (min.min(p), max.max(p)),
@@ -161,10 +155,10 @@ impl LoadedMesh {
             .iter()
             .map(|p| p.distance(center))
             .fold(0.0f32, f32::max);
-        Ok(Self {
+        let mut loaded = Self {
             path: path.to_owned(),
-            curvature_per_unit: curvature.mean_per_mm,
-            curvature_anisotropy_per_unit: curvature.anisotropy_per_mm,
+            curvature_per_unit: Vec::new(),
+            curvature_anisotropy_per_unit: Vec::new(),
             curvature_smoothing,
             curvature_filter_units: 0.0,
             center,
@@ -172,7 +166,9 @@ impl LoadedMesh {
             extent: max - min,
             surfaces: MeshSurfaces::single(&mesh),
             mesh,
-        })
+        };
+        loaded.filter_curvature(0.0)?;
+        Ok(loaded)
     }
 
     /// A starting scale for a newly loaded file: glTF is in metres by its specification

@@ -82,46 +82,10 @@ impl SurfaceFilter {
         // Everything is in model units (`t` too), which cannot overflow where mm² might; the
         // solution does not depend on the unit, as M and t·L scale alike.
         let mm = f64::from(mm_per_unit);
-        // Per face: the cotangent at each corner, the area and the perimeter (zero for a
-        // degenerate face, which then couples nothing).
-        let faces: Vec<([f64; 3], f64, f64)> = triangles
-            .par_iter()
-            .map(|&t| {
-                let p = t.map(|i| positions[i as usize].as_dvec3());
-                let double_area = (p[1] - p[0]).cross(p[2] - p[0]).length();
-                let repeated = t[0] == t[1] || t[1] == t[2] || t[2] == t[0];
-                if repeated || !(double_area > 0.0 && double_area.is_finite()) {
-                    return ([0.0; 3], 0.0, 0.0);
-                }
-                let cot = std::array::from_fn(|k| {
-                    let (a, b) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
-                    a.dot(b) / double_area
-                });
-                let perimeter = (0..3)
-                    .map(|k| (p[(k + 1) % 3] - p[k]).length())
-                    .sum::<f64>();
-                (cot, 0.5 * double_area, perimeter)
-            })
-            .collect();
-
-        let (edge_sum, edge_count) = faces
-            .par_chunks(CHUNK)
-            .map(|chunk| {
-                chunk.iter().fold((0.0, 0usize), |(sum, count), f| {
-                    if f.1 > 0.0 {
-                        (sum + f.2, count + 3)
-                    } else {
-                        (sum, count)
-                    }
-                })
-            })
-            .collect::<Vec<_>>()
-            .into_iter()
-            .fold((0.0, 0), |(s, c), (ds, dc)| (s + ds, c + dc));
-        if edge_count == 0 {
+        let Some(mean_edge) = super::mean_edge_length_units(positions, triangles) else {
             return Ok(None);
-        }
-        let mean_edge_mm = edge_sum / edge_count as f64 * mm;
+        };
+        let mean_edge_mm = mean_edge * mm;
         let edges = f64::from(length_mm) / mean_edge_mm;
         if edges > f64::from(MAX_FILTER_LENGTH_EDGES) {
             return Err(CurvatureError::FilterTooLong {
@@ -129,6 +93,24 @@ impl SurfaceFilter {
                 mean_edge_mm: mean_edge_mm as f32,
             });
         }
+        // Per face: the cotangent at each corner and the area (zero for a degenerate face,
+        // which then couples nothing).
+        let faces: Vec<([f64; 3], f64)> = triangles
+            .par_iter()
+            .map(|&t| {
+                let p = t.map(|i| positions[i as usize].as_dvec3());
+                let double_area = (p[1] - p[0]).cross(p[2] - p[0]).length();
+                let repeated = t[0] == t[1] || t[1] == t[2] || t[2] == t[0];
+                if repeated || !(double_area > 0.0 && double_area.is_finite()) {
+                    return ([0.0; 3], 0.0);
+                }
+                let cot = std::array::from_fn(|k| {
+                    let (a, b) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
+                    a.dot(b) / double_area
+                });
+                (cot, 0.5 * double_area)
+            })
+            .collect();
 
         // Rows by gathering each vertex's faces (in increasing face order, so w_ij and w_ji
         // are the same sum in the same order: the matrix is exactly symmetric).
@@ -139,7 +121,7 @@ impl SurfaceFilter {
                 let mut row = Vec::new();
                 let mut area = 0.0;
                 for &f in adjacency.faces_of(v) {
-                    let (cot, face_area, _) = faces[f as usize];
+                    let (cot, face_area) = faces[f as usize];
                     if face_area <= 0.0 {
                         continue;
                     }
