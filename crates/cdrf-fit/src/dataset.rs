@@ -50,7 +50,7 @@ use std::path::{Path, PathBuf};
 use glam::{Vec2, Vec3};
 use serde::Deserialize;
 
-use crate::image_io::ColorSpace;
+use crate::image_io::{ColorSpace, Decoding, SensorLevels};
 
 /// The manifest's file name inside a data set folder.
 pub const MANIFEST_FILE_NAME: &str = "cdrf-dataset.toml";
@@ -74,13 +74,69 @@ pub struct Camera {
     pub projection: Projection,
 }
 
-/// The `[light]` table: one directional light.
+/// Where the light comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LightSource {
+    /// A collimated light (the sun, or a lamp far away): the same direction everywhere.
+    Directional {
+        /// Unit vector toward the light, in camera space (+x right, +y up, +z toward the camera).
+        to_light: Vec3,
+    },
+    /// A lamp at a finite distance: direction and irradiance change across the sphere.
+    Lamp {
+        /// The lamp's position in camera space, mm (the camera's pinhole at the origin).
+        position_mm: Vec3,
+    },
+}
+
+/// How strong the light is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LightStrength {
+    /// Given per RGB channel (each > 0): the irradiance on a surface facing a directional light,
+    /// or a lamp's intensity (a surface facing it at d mm receives `intensity / d²`).
+    Given(Vec3),
+    /// Measured from the `[calibration]` sphere.
+    Calibrated,
+    /// Unknown: the table is relative (a directional light's irradiance is taken as 1; a lamp's
+    /// irradiance as 1 at the first sphere's centre).
+    Relative,
+}
+
+/// The `[light]` table.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Light {
-    /// Unit vector toward the light, in camera space (+x right, +y up, +z toward the camera).
-    pub to_light: Vec3,
-    /// Irradiance per RGB channel on a surface facing the light (each > 0).
-    pub irradiance: Vec3,
+    /// Where the light comes from.
+    pub source: LightSource,
+    /// How strong it is.
+    pub strength: LightStrength,
+}
+
+impl Light {
+    /// The direction toward a directional light (`None` for a lamp).
+    pub fn to_light(&self) -> Option<Vec3> {
+        match self.source {
+            LightSource::Directional { to_light } => Some(to_light),
+            LightSource::Lamp { .. } => None,
+        }
+    }
+
+    /// The strength the manifest gives (`None` when calibrated or unknown).
+    pub fn given_strength(&self) -> Option<Vec3> {
+        match self.strength {
+            LightStrength::Given(value) => Some(value),
+            LightStrength::Calibrated | LightStrength::Relative => None,
+        }
+    }
+}
+
+/// The `[calibration]` table: a matte (Lambertian) reference sphere of known albedo under the
+/// same light, in a photograph of its own or in one of the spheres' photographs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Calibration {
+    /// Its photograph and radius (as a `[[sphere]]` entry).
+    pub sphere: SphereEntry,
+    /// Its diffuse albedo per RGB channel, in (0, 1].
+    pub albedo: Vec3,
 }
 
 /// One `[[sphere]]` entry: a photograph of one sphere.
@@ -100,6 +156,21 @@ pub struct SphereEntry {
     pub color_space: Option<ColorSpace>,
     /// Factor applied to the decoded linear values (> 0; default 1).
     pub exposure: f32,
+    /// Raw-like code levels, if given.
+    pub levels: Option<SensorLevels>,
+    /// A mask image (same size; non-zero = use the pixel), if given.
+    pub mask: Option<PathBuf>,
+}
+
+impl SphereEntry {
+    /// How its image is decoded.
+    pub fn decoding(&self) -> Decoding {
+        Decoding {
+            color_space: self.color_space,
+            exposure: self.exposure,
+            levels: self.levels,
+        }
+    }
 }
 
 /// A validated data set: the folder's manifest with every image checked to exist.
@@ -113,6 +184,8 @@ pub struct Dataset {
     pub camera: Camera,
     /// The light.
     pub light: Light,
+    /// The matte reference sphere, if any.
+    pub calibration: Option<Calibration>,
     /// The spheres, in manifest order (at least one).
     pub spheres: Vec<SphereEntry>,
 }
@@ -269,17 +342,41 @@ pub enum DatasetError {
         /// The second sphere's image name.
         second: String,
     },
-    /// Two entries name the same image.
-    #[error("{}: {image} is listed twice (radius_mm = {first_radius_mm} and {second_radius_mm})", manifest.display())]
-    DuplicateImage {
+    /// Entries that share an image decode it differently.
+    #[error("{}: {image} is named by several entries with different {key}: entries that share a photograph must decode it alike", manifest.display())]
+    SharedImageMismatch {
         /// The manifest.
         manifest: PathBuf,
         /// The image name.
         image: String,
-        /// The first entry's radius.
-        first_radius_mm: f32,
-        /// The second entry's radius.
-        second_radius_mm: f32,
+        /// Which key differs.
+        key: &'static str,
+    },
+    /// The `[light]` table names no source, or both.
+    #[error("{}: [light] {problem}", manifest.display())]
+    LightSource {
+        /// The manifest.
+        manifest: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+    /// `[calibration]` is given together with a known strength, or its albedo is out of range.
+    #[error("{}: [calibration] {problem}", manifest.display())]
+    Calibration {
+        /// The manifest.
+        manifest: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+    /// `black_level` / `white_level` are inconsistent.
+    #[error("{}: {image}: black_level / white_level: {problem}", manifest.display())]
+    Levels {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The entry's image name.
+        image: String,
+        /// What is wrong.
+        problem: String,
     },
     /// An `image` is an absolute path or leaves the data set folder through `..`.
     #[error("{}: image = {image:?}: {problem}", manifest.display())]
@@ -317,6 +414,7 @@ const IMAGE_EXTENSIONS: &[&str] = &["exr", "png", "jpg", "jpeg", "tif", "tiff"];
 struct RawManifest {
     camera: RawCamera,
     light: RawLight,
+    calibration: Option<RawCalibration>,
     #[serde(default)]
     sphere: Vec<RawSphere>,
 }
@@ -338,10 +436,14 @@ enum RawProjection {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawLight {
-    #[serde(deserialize_with = "to_light")]
-    to_light: [f32; 3],
+    #[serde(default, deserialize_with = "optional::to_light")]
+    to_light: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "optional::position_mm")]
+    position_mm: Option<[f32; 3]>,
     #[serde(default, deserialize_with = "optional::irradiance")]
     irradiance: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "optional::intensity")]
+    intensity: Option<[f32; 3]>,
 }
 
 #[derive(Deserialize)]
@@ -354,9 +456,36 @@ struct RawSphere {
     radius_px: Option<f32>,
     color_space: Option<RawColorSpace>,
     exposure: Option<f32>,
+    black_level: Option<u16>,
+    white_level: Option<u16>,
+    mask: Option<String>,
 }
 
-cdrf_core::exact_array_fields!(to_light: 3, irradiance: 3, center_px: 2);
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCalibration {
+    image: String,
+    radius_mm: f32,
+    #[serde(deserialize_with = "albedo")]
+    albedo: [f32; 3],
+    #[serde(default, deserialize_with = "optional::center_px")]
+    center_px: Option<[f32; 2]>,
+    radius_px: Option<f32>,
+    color_space: Option<RawColorSpace>,
+    exposure: Option<f32>,
+    black_level: Option<u16>,
+    white_level: Option<u16>,
+    mask: Option<String>,
+}
+
+cdrf_core::exact_array_fields!(
+    to_light: 3,
+    position_mm: 3,
+    irradiance: 3,
+    intensity: 3,
+    albedo: 3,
+    center_px: 2
+);
 
 #[derive(Deserialize, Clone, Copy)]
 #[serde(rename_all = "lowercase")]
@@ -413,13 +542,20 @@ impl Dataset {
             }
         })?;
         let dataset = validate(raw, dir, manifest)?;
-        for sphere in &dataset.spheres {
-            if !sphere.image.is_file() {
-                return Err(DatasetError::ImageMissing {
-                    manifest: dataset.manifest.clone(),
-                    image: sphere.image_name.clone(),
-                    path: sphere.image.clone(),
-                });
+        let entries = dataset
+            .spheres
+            .iter()
+            .chain(dataset.calibration.as_ref().map(|c| &c.sphere));
+        for sphere in entries {
+            let files = std::iter::once(&sphere.image).chain(sphere.mask.as_ref());
+            for path in files {
+                if !path.is_file() {
+                    return Err(DatasetError::ImageMissing {
+                        manifest: dataset.manifest.clone(),
+                        image: sphere.image_name.clone(),
+                        path: path.clone(),
+                    });
+                }
             }
         }
         Ok(dataset)
@@ -484,116 +620,271 @@ fn validate(raw: RawManifest, dir: PathBuf, manifest: PathBuf) -> Result<Dataset
         }
     };
 
-    // Divide by the largest component first so that huge (finite) vectors normalise too.
-    let to_light = Vec3::from_array(raw.light.to_light);
-    let largest = to_light.abs().max_element();
-    if !(to_light.is_finite() && largest > 0.0) {
-        return Err(DatasetError::InvalidLightDirection {
-            manifest,
-            to_light: raw.light.to_light,
-        });
-    }
-    let to_light = (to_light / largest).normalize();
-    let irradiance = raw.light.irradiance.unwrap_or([1.0; 3]);
-    if !irradiance
-        .iter()
-        .all(|&c| (MIN_IRRADIANCE..=MAX_IRRADIANCE).contains(&c))
-    {
-        return Err(DatasetError::InvalidIrradiance {
-            manifest,
-            irradiance,
-        });
-    }
+    let light = validate_light(&raw.light, projection, raw.calibration.is_some(), &manifest)?;
 
     if raw.sphere.is_empty() {
         return Err(DatasetError::NoSpheres { manifest });
     }
     let mut spheres: Vec<SphereEntry> = Vec::with_capacity(raw.sphere.len());
     for s in raw.sphere {
-        let image = s.image;
-        if !positive(s.radius_mm) {
-            return Err(DatasetError::InvalidRadius {
-                manifest,
-                image,
-                radius_mm: s.radius_mm,
-            });
-        }
-        if let Some(radius_px) = s.radius_px
-            && !positive(radius_px)
-        {
-            return Err(DatasetError::InvalidRadiusPx {
-                manifest,
-                image,
-                radius_px,
-            });
-        }
-        if let Some(center_px) = s.center_px
-            && !center_px.iter().all(|c| c.is_finite())
-        {
-            return Err(DatasetError::InvalidCenterPx {
-                manifest,
-                image,
-                center_px,
-            });
-        }
-        let exposure = s.exposure.unwrap_or(1.0);
-        if !positive(exposure) {
-            return Err(DatasetError::InvalidExposure {
-                manifest,
-                image,
-                exposure,
-            });
-        }
+        let entry = validate_entry(s, &dir, &manifest)?;
         for earlier in &spheres {
-            if earlier.image_name == image {
-                return Err(DatasetError::DuplicateImage {
-                    manifest,
-                    image,
-                    first_radius_mm: earlier.radius_mm,
-                    second_radius_mm: s.radius_mm,
-                });
-            }
-            if earlier.radius_mm == s.radius_mm {
+            if earlier.radius_mm == entry.radius_mm {
                 return Err(DatasetError::DuplicateRadius {
                     manifest,
-                    radius_mm: s.radius_mm,
+                    radius_mm: entry.radius_mm,
                     first: earlier.image_name.clone(),
-                    second: image,
+                    second: entry.image_name,
                 });
             }
         }
-        let path = match cdrf_core::input_file::resolve_inside(&dir, &image) {
-            Ok(path) => path,
-            Err(problem) => {
-                return Err(DatasetError::ImageOutsideFolder {
+        spheres.push(entry);
+    }
+    let calibration = match raw.calibration {
+        None => None,
+        Some(c) => {
+            let albedo = Vec3::from_array(c.albedo);
+            if !albedo.is_finite() || albedo.min_element() <= 0.0 || albedo.max_element() > 1.0 {
+                return Err(DatasetError::Calibration {
                     manifest,
-                    image,
-                    problem,
+                    problem: format!("albedo = {:?}: every channel must be in (0, 1]", c.albedo),
                 });
             }
-        };
-        spheres.push(SphereEntry {
-            image: path,
-            image_name: image,
-            radius_mm: s.radius_mm,
-            center_px: s.center_px.map(Vec2::from_array),
-            radius_px: s.radius_px,
-            color_space: s.color_space.map(|c| match c {
-                RawColorSpace::Linear => ColorSpace::Linear,
-                RawColorSpace::Srgb => ColorSpace::Srgb,
-            }),
-            exposure,
-        });
+            let sphere = validate_entry(
+                RawSphere {
+                    image: c.image,
+                    radius_mm: c.radius_mm,
+                    center_px: c.center_px,
+                    radius_px: c.radius_px,
+                    color_space: c.color_space,
+                    exposure: c.exposure,
+                    black_level: c.black_level,
+                    white_level: c.white_level,
+                    mask: c.mask,
+                },
+                &dir,
+                &manifest,
+            )?;
+            Some(Calibration { sphere, albedo })
+        }
+    };
+    // Entries that share a photograph must decode it alike (it is decoded once).
+    let all: Vec<&SphereEntry> = spheres
+        .iter()
+        .chain(calibration.as_ref().map(|c| &c.sphere))
+        .collect();
+    for (i, a) in all.iter().enumerate() {
+        for b in &all[..i] {
+            if a.image != b.image {
+                continue;
+            }
+            let key = if a.color_space != b.color_space {
+                "color_space"
+            } else if a.exposure != b.exposure {
+                "exposure"
+            } else if a.levels != b.levels {
+                "black_level / white_level"
+            } else {
+                continue;
+            };
+            return Err(DatasetError::SharedImageMismatch {
+                manifest,
+                image: a.image_name.clone(),
+                key,
+            });
+        }
     }
 
     Ok(Dataset {
         dir,
         manifest,
         camera: Camera { projection },
-        light: Light {
-            to_light,
-            irradiance: Vec3::from_array(irradiance),
-        },
+        light,
+        calibration,
         spheres,
+    })
+}
+
+fn validate_light(
+    raw: &RawLight,
+    projection: Projection,
+    calibrated: bool,
+    manifest: &Path,
+) -> Result<Light, DatasetError> {
+    let light_error = |problem: &str| DatasetError::LightSource {
+        manifest: manifest.to_path_buf(),
+        problem: problem.to_owned(),
+    };
+    let (source, given) = match (raw.to_light, raw.position_mm) {
+        (Some(_), Some(_)) => {
+            return Err(light_error(
+                "gives both to_light (a directional light) and position_mm (a lamp): keep one",
+            ));
+        }
+        (None, None) => {
+            return Err(light_error(
+                "needs to_light (the direction toward a distant light) or position_mm (a lamp's position relative to the camera, mm)",
+            ));
+        }
+        (Some(raw_to_light), None) => {
+            if raw.intensity.is_some() {
+                return Err(light_error(
+                    "intensity is a lamp's (with position_mm); a directional light takes irradiance",
+                ));
+            }
+            // Divide by the largest component first so that huge (finite) vectors normalise too.
+            let to_light = Vec3::from_array(raw_to_light);
+            let largest = to_light.abs().max_element();
+            if !(to_light.is_finite() && largest > 0.0) {
+                return Err(DatasetError::InvalidLightDirection {
+                    manifest: manifest.to_path_buf(),
+                    to_light: raw_to_light,
+                });
+            }
+            let to_light = (to_light / largest).normalize();
+            (LightSource::Directional { to_light }, raw.irradiance)
+        }
+        (None, Some(position_mm)) => {
+            if raw.irradiance.is_some() {
+                return Err(light_error(
+                    "irradiance is a directional light's; a lamp (position_mm) takes intensity (a surface facing it at d mm receives intensity / d²)",
+                ));
+            }
+            if !matches!(projection, Projection::Perspective { .. }) {
+                return Err(light_error(
+                    "a lamp (position_mm) needs [camera] projection = \"perspective\": an orthographic photograph does not say how far the sphere is from it",
+                ));
+            }
+            let position_mm = Vec3::from_array(position_mm);
+            if !position_mm.is_finite() {
+                return Err(light_error(&format!(
+                    "position_mm = {:?}: must be finite",
+                    position_mm.to_array()
+                )));
+            }
+            (LightSource::Lamp { position_mm }, raw.intensity)
+        }
+    };
+    let strength = match (given, calibrated) {
+        (Some(value), false) => {
+            if !value
+                .iter()
+                .all(|&c| (MIN_IRRADIANCE..=MAX_IRRADIANCE).contains(&c))
+            {
+                return Err(DatasetError::InvalidIrradiance {
+                    manifest: manifest.to_path_buf(),
+                    irradiance: value,
+                });
+            }
+            LightStrength::Given(Vec3::from_array(value))
+        }
+        (Some(_), true) => {
+            return Err(DatasetError::Calibration {
+                manifest: manifest.to_path_buf(),
+                problem: "is given together with the light's irradiance / intensity: give one (the calibration measures it)".to_owned(),
+            });
+        }
+        (None, true) => LightStrength::Calibrated,
+        (None, false) => LightStrength::Relative,
+    };
+    Ok(Light { source, strength })
+}
+
+/// Validates one `[[sphere]]` (or the calibration's) entry, resolving its files in `dir`.
+fn validate_entry(s: RawSphere, dir: &Path, manifest: &Path) -> Result<SphereEntry, DatasetError> {
+    let manifest = manifest.to_path_buf();
+    let image = s.image;
+    if !positive(s.radius_mm) {
+        return Err(DatasetError::InvalidRadius {
+            manifest,
+            image,
+            radius_mm: s.radius_mm,
+        });
+    }
+    if let Some(radius_px) = s.radius_px
+        && !positive(radius_px)
+    {
+        return Err(DatasetError::InvalidRadiusPx {
+            manifest,
+            image,
+            radius_px,
+        });
+    }
+    if let Some(center_px) = s.center_px
+        && !center_px.iter().all(|c| c.is_finite())
+    {
+        return Err(DatasetError::InvalidCenterPx {
+            manifest,
+            image,
+            center_px,
+        });
+    }
+    let exposure = s.exposure.unwrap_or(1.0);
+    if !positive(exposure) {
+        return Err(DatasetError::InvalidExposure {
+            manifest,
+            image,
+            exposure,
+        });
+    }
+    let color_space = s.color_space.map(|c| match c {
+        RawColorSpace::Linear => ColorSpace::Linear,
+        RawColorSpace::Srgb => ColorSpace::Srgb,
+    });
+    let levels = match (s.black_level, s.white_level) {
+        (None, None) => None,
+        (black, Some(white)) => {
+            let black = black.unwrap_or(0);
+            let problem = if black >= white {
+                Some(format!(
+                    "black_level = {black} must be below white_level = {white}"
+                ))
+            } else if color_space == Some(ColorSpace::Srgb) {
+                Some(
+                    "they describe linear sensor codes; this entry says color_space = \"srgb\""
+                        .to_owned(),
+                )
+            } else {
+                None
+            };
+            if let Some(problem) = problem {
+                return Err(DatasetError::Levels {
+                    manifest,
+                    image,
+                    problem,
+                });
+            }
+            Some(SensorLevels { black, white })
+        }
+        (Some(_), None) => {
+            return Err(DatasetError::Levels {
+                manifest,
+                image,
+                problem: "black_level needs white_level (the code at which the sensor clips)"
+                    .to_owned(),
+            });
+        }
+    };
+    let resolve = |name: &str| {
+        cdrf_core::input_file::resolve_inside(dir, name).map_err(|problem| {
+            DatasetError::ImageOutsideFolder {
+                manifest: manifest.clone(),
+                image: name.to_owned(),
+                problem,
+            }
+        })
+    };
+    let path = resolve(&image)?;
+    let mask = s.mask.as_deref().map(resolve).transpose()?;
+    Ok(SphereEntry {
+        image: path,
+        image_name: image,
+        radius_mm: s.radius_mm,
+        center_px: s.center_px.map(Vec2::from_array),
+        radius_px: s.radius_px,
+        color_space,
+        exposure,
+        levels,
+        mask,
     })
 }

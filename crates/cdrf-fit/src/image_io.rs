@@ -58,6 +58,38 @@ use image::{DynamicImage, ImageFormat};
 /// JPEG code value at or above which a channel counts as clipped (see the module docs).
 pub const JPEG_SATURATION_CODE: u8 = 250;
 
+/// A raw-like integer file's code levels: `linear = (code − black) / (white − black)`, and a
+/// channel at or above `white` is clipped. For 8/16-bit linear files that hold a sensor's codes
+/// as they are (a 14-bit raw with a black level in a 16-bit PNG, say).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct SensorLevels {
+    /// Code of no light (the sensor's offset).
+    pub black: u16,
+    /// Code at which the sensor clips (> `black`).
+    pub white: u16,
+}
+
+/// How to turn a file's stored values into linear radiance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Decoding {
+    /// The transfer curve; `None`: the format's default ([`ColorSpace::default_for`]).
+    pub color_space: Option<ColorSpace>,
+    /// Factor the linear values are multiplied by (> 0).
+    pub exposure: f32,
+    /// Raw-like code levels (integer files in the linear colour space only).
+    pub levels: Option<SensorLevels>,
+}
+
+impl Default for Decoding {
+    fn default() -> Self {
+        Self {
+            color_space: None,
+            exposure: 1.0,
+            levels: None,
+        }
+    }
+}
+
 /// How the stored values relate to linear radiance.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ColorSpace {
@@ -203,6 +235,14 @@ pub enum ImageError {
         /// Row of the first one (row 0 at the top).
         first_y: u32,
     },
+    /// Sensor levels were given for a file they cannot apply to.
+    #[error("{}: black_level / white_level: {problem}", path.display())]
+    Levels {
+        /// The file.
+        path: PathBuf,
+        /// Why they do not apply.
+        problem: String,
+    },
     /// The exposure factor is not a finite number > 0.
     #[error("{}: exposure = {exposure}: must be a finite number > 0", path.display())]
     InvalidExposure {
@@ -226,6 +266,27 @@ pub fn load_linear_image(
     color_space: Option<ColorSpace>,
     exposure: f32,
 ) -> Result<LinearImage, ImageError> {
+    load_linear_image_with(
+        path,
+        &Decoding {
+            color_space,
+            exposure,
+            levels: None,
+        },
+    )
+}
+
+/// Like [`load_linear_image`], with raw-like [`SensorLevels`] where `decoding` gives them.
+///
+/// # Errors
+/// As [`load_linear_image`]; also [`ImageError::Levels`] when levels are given for a float
+/// file, for an sRGB-encoded one, or exceed an 8-bit file's codes.
+pub fn load_linear_image_with(path: &Path, decoding: &Decoding) -> Result<LinearImage, ImageError> {
+    let Decoding {
+        color_space,
+        exposure,
+        levels,
+    } = *decoding;
     if !(exposure.is_finite() && exposure > 0.0) {
         return Err(ImageError::InvalidExposure {
             path: path.to_path_buf(),
@@ -261,9 +322,17 @@ pub fn load_linear_image(
     }
 
     let (image, format) = match detect(magic) {
-        Some(Detected::Exr) => (decode_exr(path, reader, color_space, exposure)?, "OpenEXR"),
+        Some(Detected::Exr) => {
+            if levels.is_some() {
+                return Err(levels_error(
+                    path,
+                    "they apply to 8/16-bit integer files; this is float OpenEXR",
+                ));
+            }
+            (decode_exr(path, reader, color_space, exposure)?, "OpenEXR")
+        }
         Some(Detected::Image(format)) => (
-            decode_with_image(path, reader, format, color_space, exposure)?,
+            decode_with_image(path, reader, format, color_space, exposure, levels)?,
             format_name(format),
         ),
         None => return Err(unrecognised(path, magic)),
@@ -507,6 +576,13 @@ fn image_error(path: &Path, format: ImageFormat, error: image::ImageError) -> Im
     }
 }
 
+fn levels_error(path: &Path, problem: &str) -> ImageError {
+    ImageError::Levels {
+        path: path.to_path_buf(),
+        problem: problem.to_owned(),
+    }
+}
+
 /// Decodes PNG, JPEG and TIFF with the `image` crate and converts its buffer in one pass.
 fn decode_with_image(
     path: &Path,
@@ -514,6 +590,7 @@ fn decode_with_image(
     format: ImageFormat,
     color_space: Option<ColorSpace>,
     exposure: f32,
+    levels: Option<SensorLevels>,
 ) -> Result<LinearImage, ImageError> {
     let decoded = image::ImageReader::with_format(reader, format)
         .decode()
@@ -524,6 +601,37 @@ fn decode_with_image(
     } else {
         u8::MAX
     };
+    if let Some(levels) = levels {
+        if color_space == Some(ColorSpace::Srgb) {
+            return Err(levels_error(
+                path,
+                "they apply to linear files, not sRGB-encoded ones",
+            ));
+        }
+        let (top, kind) = match &decoded {
+            DynamicImage::ImageLuma8(_)
+            | DynamicImage::ImageLumaA8(_)
+            | DynamicImage::ImageRgb8(_)
+            | DynamicImage::ImageRgba8(_) => (u16::from(u8::MAX), "8-bit"),
+            DynamicImage::ImageRgb32F(_) | DynamicImage::ImageRgba32F(_) => {
+                return Err(levels_error(
+                    path,
+                    "they apply to 8/16-bit integer files; this is float",
+                ));
+            }
+            _ => (u16::MAX, "16-bit"),
+        };
+        if levels.white > top {
+            return Err(levels_error(
+                path,
+                &format!(
+                    "white_level = {} is above the {kind} file's largest code {top}",
+                    levels.white
+                ),
+            ));
+        }
+        return Ok(convert_levels(&decoded, levels, exposure));
+    }
     let (pixels, saturated, sample_format, color_space) = match &decoded {
         DynamicImage::ImageLuma8(b) => convert_u8(b.as_raw(), 1, color_space, exposure, max_u8),
         DynamicImage::ImageLumaA8(b) => convert_u8(b.as_raw(), 2, color_space, exposure, max_u8),
@@ -553,6 +661,59 @@ fn decode_with_image(
 }
 
 type Converted = (Vec<Vec3>, Vec<bool>, SampleFormat, ColorSpace);
+
+/// An integer image with raw-like levels: `(code − black) / (white − black) · exposure` (negative
+/// below black: noise around the offset must not be clipped, or the dark mean is biased).
+fn convert_levels(decoded: &DynamicImage, levels: SensorLevels, exposure: f32) -> LinearImage {
+    let scale = exposure / f32::from(levels.white - levels.black);
+    let black = f32::from(levels.black);
+    let decode = |code: u16| (f32::from(code) - black) * scale;
+    // Checked by the caller: an 8-bit file's white level fits in a byte.
+    let white_u8 = u8::try_from(levels.white).unwrap_or(u8::MAX);
+    let (pixels, saturated, sample_format) = match decoded {
+        DynamicImage::ImageLuma8(b) => {
+            let (p, s) = convert_integer(b.as_raw(), 1, white_u8, |c: u8| decode(c.into()));
+            (p, s, SampleFormat::U8)
+        }
+        DynamicImage::ImageLumaA8(b) => {
+            let (p, s) = convert_integer(b.as_raw(), 2, white_u8, |c: u8| decode(c.into()));
+            (p, s, SampleFormat::U8)
+        }
+        DynamicImage::ImageRgb8(b) => {
+            let (p, s) = convert_integer(b.as_raw(), 3, white_u8, |c: u8| decode(c.into()));
+            (p, s, SampleFormat::U8)
+        }
+        DynamicImage::ImageRgba8(b) => {
+            let (p, s) = convert_integer(b.as_raw(), 4, white_u8, |c: u8| decode(c.into()));
+            (p, s, SampleFormat::U8)
+        }
+        DynamicImage::ImageLuma16(b) => {
+            let (p, s) = convert_integer(b.as_raw(), 1, levels.white, decode);
+            (p, s, SampleFormat::U16)
+        }
+        DynamicImage::ImageLumaA16(b) => {
+            let (p, s) = convert_integer(b.as_raw(), 2, levels.white, decode);
+            (p, s, SampleFormat::U16)
+        }
+        DynamicImage::ImageRgb16(b) => {
+            let (p, s) = convert_integer(b.as_raw(), 3, levels.white, decode);
+            (p, s, SampleFormat::U16)
+        }
+        _ => {
+            let buffer = decoded.to_rgba16();
+            let (p, s) = convert_integer(buffer.as_raw(), 4, levels.white, decode);
+            (p, s, SampleFormat::U16)
+        }
+    };
+    LinearImage {
+        width: decoded.width(),
+        height: decoded.height(),
+        pixels,
+        saturated,
+        sample_format,
+        color_space: ColorSpace::Linear,
+    }
+}
 
 fn convert_u8(
     raw: &[u8],

@@ -25,12 +25,14 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod circles;
 pub mod curves;
 pub mod dataset;
 pub mod diffusion;
 pub mod evaluate;
 pub mod fit;
 pub mod gaussian_fit;
+pub mod highlight;
 pub mod image_io;
 pub mod media;
 pub mod outputs;

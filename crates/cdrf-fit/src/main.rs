@@ -140,6 +140,52 @@ fn run(args: Args) -> anyhow::Result<()> {
                 100.0 * errors.gaussian.lit_and_terminator.mean_relative_error,
             );
         }
+        if let Some(light) = &fit.light {
+            match light.strength_from {
+                "relative" => eprintln!(
+                    "warning: the light's strength is unknown (no irradiance / intensity and no [calibration] sphere): the table is relative, its scale arbitrary"
+                ),
+                "calibrated" => {
+                    let s = light.strength;
+                    eprintln!(
+                        "light calibrated from the reference sphere: {} = [{:.4e}, {:.4e}, {:.4e}]",
+                        if light.source == "lamp" {
+                            "intensity"
+                        } else {
+                            "irradiance"
+                        },
+                        s[0],
+                        s[1],
+                        s[2]
+                    );
+                }
+                _ => {}
+            }
+        }
+        for sphere in &fit.spheres {
+            if sphere.dropped.highlight > 0 {
+                eprintln!(
+                    "{}: {} pixels of a residual highlight left out (imperfect cross-polarisation)",
+                    sphere.image, sphere.dropped.highlight
+                );
+            }
+        }
+        for (sphere, entry) in report.spheres.iter().zip(&fit.spheres) {
+            if sphere.noisy_theta_deg.is_empty() {
+                continue;
+            }
+            let ranges: Vec<String> = sphere
+                .noisy_theta_deg
+                .iter()
+                .map(|[from, to]| format!("{from:.0}–{to:.0}"))
+                .collect();
+            eprintln!(
+                "warning: r = {} mm: too noisy to trust at theta {} deg (95 % band wider than ±{:.0} %; see report.json confidence_95)",
+                entry.radius_mm,
+                ranges.join(", "),
+                100.0 * cdrf_fit::fit::NOISY_BAND
+            );
+        }
         eprintln!(
             "Gaussian CDRF: sigma_mm = [{:.2}, {:.2}, {:.2}]",
             sigma[0], sigma[1], sigma[2]

@@ -22,7 +22,9 @@ use serde::Serialize;
 
 use crate::curves::{CORRECTION_PHI_COUNT, SphereSamples, ViewModel};
 use crate::evaluate::SphereError;
-use crate::fit::{Fit, ModelErrors, SphereReport, Timings};
+use crate::fit::{
+    Fit, LightReport, ModelErrors, NOISY_BAND, SphereReport, Timings, confidence_95, noisy_ranges,
+};
 use crate::plot::{
     ColorScale, Colormap, LinePlot, LineStyle, Series, heatmap_png, rgb_png_srgb, upscale_nearest,
 };
@@ -97,6 +99,11 @@ pub struct ReportSphere {
     pub corrected_curve: Vec<[f32; 3]>,
     /// Effective samples per θ node (0: filled, not measured).
     pub samples_per_node: Vec<f32>,
+    /// Half-width of the 95 % confidence band of the curve at each θ node, relative to it, from
+    /// the pixels' noise (null: not measured). See [`crate::fit::confidence_95`].
+    pub confidence_95: Vec<Option<f32>>,
+    /// θ ranges (degrees) where that band is wider than ±10 %: too noisy to trust.
+    pub noisy_theta_deg: Vec<[f32; 2]>,
 }
 
 /// `report.json`.
@@ -106,6 +113,9 @@ pub struct Report {
     pub tool_version: &'static str,
     /// The data set folder.
     pub dataset: PathBuf,
+    /// How the light was known: where it was, and whether its strength was given, calibrated
+    /// or unknown (`"relative"`: the table's scale is arbitrary).
+    pub light: Option<LightReport>,
     /// The view model of the table.
     pub view_model: ViewModel,
     /// The table's shape.
@@ -385,6 +395,12 @@ impl Report {
                     .collect(),
                 corrected_curve: fit.table_curves[k].iter().map(|v| v.to_array()).collect(),
                 samples_per_node: fit.curves.chosen.node_samples[k].clone(),
+                confidence_95: confidence_95(&fit.curves.chosen, k),
+                noisy_theta_deg: noisy_ranges(
+                    &confidence_95(&fit.curves.chosen, k),
+                    &theta_deg,
+                    NOISY_BAND,
+                ),
             })
             .collect();
         let phi_table = |values: &[Vec3]| -> Vec<(f32, [f32; 3])> {
@@ -411,6 +427,7 @@ impl Report {
         Self {
             tool_version: env!("CARGO_PKG_VERSION"),
             dataset: dataset.to_path_buf(),
+            light: fit.light.clone(),
             view_model: settings.view_model,
             table: TableSummary {
                 curvature_min_per_mm: axis.min_per_mm,

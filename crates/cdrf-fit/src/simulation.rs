@@ -43,9 +43,9 @@ use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::dataset::{Light, Projection};
+use crate::dataset::Projection;
 use crate::image_io::{ColorSpace, LinearImage, SampleFormat};
-use crate::sphere::{Circle, SphereView};
+use crate::sphere::{Circle, Illumination, SphereView};
 
 /// A homogeneous scattering medium, per RGB channel, in millimetres.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -314,11 +314,8 @@ impl SimulatedSphere {
 }
 
 /// The light of every simulated photograph: from the image's left, irradiance 1.
-pub fn simulated_light() -> Light {
-    Light {
-        to_light: Vec3::new(-1.0, 0.0, 0.0),
-        irradiance: Vec3::ONE,
-    }
+pub fn simulated_light() -> Illumination {
+    Illumination::directional(Vec3::new(-1.0, 0.0, 0.0), Vec3::ONE)
 }
 
 /// Simulates the photograph of a sphere of `radius_mm` in `medium`. `progress` is called with

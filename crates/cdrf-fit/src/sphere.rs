@@ -28,7 +28,7 @@
 use cdrf_core::linear::solve_3x3;
 use glam::{DVec2, Vec2, Vec3};
 
-use crate::dataset::{Light, Projection};
+use crate::dataset::{LightSource, Projection};
 use crate::image_io::LinearImage;
 
 /// A circle in continuous pixel coordinates (`(0, 0)` is the top-left corner of the image).
@@ -67,6 +67,16 @@ pub enum DetectionError {
         inliers: usize,
         /// Boundary pixels in all.
         boundary: usize,
+    },
+    /// A photograph of several spheres shows fewer circles than the manifest names.
+    #[error(
+        "the manifest names {wanted} spheres in this photograph but fewer were found ({error})"
+    )]
+    TooFewSpheres {
+        /// Entries naming the photograph.
+        wanted: usize,
+        /// What the detector said.
+        error: Box<DetectionError>,
     },
 }
 
@@ -248,7 +258,7 @@ fn box_blur_3x3(values: &[f32], width: usize, height: usize) -> Vec<f32> {
     out
 }
 
-fn bilinear(values: &[f32], width: usize, height: usize, p: DVec2) -> f64 {
+pub(crate) fn bilinear(values: &[f32], width: usize, height: usize, p: DVec2) -> f64 {
     let x = (p.x - 0.5).clamp(0.0, (width - 1) as f64);
     let y = (p.y - 0.5).clamp(0.0, (height - 1) as f64);
     let (x0, y0) = (x as usize, y as usize);
@@ -314,7 +324,7 @@ fn circle_through(a: DVec2, b: DVec2, c: DVec2) -> Option<(DVec2, f64)> {
 }
 
 /// Geometric least-squares circle (Gauss–Newton from `start`).
-fn fit_circle(points: &[DVec2], start: (DVec2, f64)) -> (DVec2, f64) {
+pub(crate) fn fit_circle(points: &[DVec2], start: (DVec2, f64)) -> (DVec2, f64) {
     let (mut center, mut radius) = start;
     for _ in 0..20 {
         // Residual rᵢ = |pᵢ − c| − R; Jacobian row (−uᵢ, −1) with uᵢ the unit vector c → pᵢ.
@@ -357,6 +367,52 @@ pub struct SurfacePoint {
     pub to_camera: Vec3,
     /// Distance of the pixel centre from the silhouette, pixels (positive inside).
     pub inside_by_px: f32,
+    /// The point in camera space, mm (the pinhole at the origin); perspective views only (an
+    /// orthographic photograph does not say how far the sphere is).
+    pub position_mm: Option<Vec3>,
+}
+
+/// A light as the sampler uses it: where it is and how strong, in the image's units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Illumination {
+    /// Where the light comes from.
+    pub source: LightSource,
+    /// Irradiance on a surface facing a directional light, or a lamp's intensity (a surface
+    /// facing it at d mm receives `strength / d²`), per channel.
+    pub strength: Vec3,
+}
+
+impl From<&crate::dataset::Light> for Illumination {
+    /// The manifest's light, of strength 1 where the manifest does not give it.
+    fn from(light: &crate::dataset::Light) -> Self {
+        Self {
+            source: light.source,
+            strength: light.given_strength().unwrap_or(Vec3::ONE),
+        }
+    }
+}
+
+impl Illumination {
+    /// A directional light toward unit vector `to_light` with `irradiance`.
+    pub fn directional(to_light: Vec3, irradiance: Vec3) -> Self {
+        Self {
+            source: LightSource::Directional { to_light },
+            strength: irradiance,
+        }
+    }
+
+    /// The unit vector toward the light and the irradiance on a surface facing it, at a point
+    /// (camera space, mm; a lamp seen in an orthographic view is taken from the pinhole).
+    pub fn at(&self, position_mm: Option<Vec3>) -> (Vec3, Vec3) {
+        match self.source {
+            LightSource::Directional { to_light } => (to_light, self.strength),
+            LightSource::Lamp { position_mm: lamp } => {
+                let offset = lamp - position_mm.unwrap_or(Vec3::ZERO);
+                let distance2 = offset.length_squared().max(1e-12);
+                (offset / distance2.sqrt(), self.strength / distance2)
+            }
+        }
+    }
 }
 
 /// Maps pixels to points on a sphere seen through a camera.
@@ -364,6 +420,7 @@ pub struct SurfacePoint {
 pub struct SphereView {
     circle: Circle,
     perspective: Option<PerspectiveSphere>,
+    radius_mm: f32,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -434,7 +491,18 @@ impl SphereView {
         Self {
             circle,
             perspective,
+            radius_mm: 1.0,
         }
+    }
+
+    /// The same view of a sphere of `radius_mm` (what places its points in mm, for a lamp).
+    pub fn with_radius_mm(self, radius_mm: f32) -> Self {
+        Self { radius_mm, ..self }
+    }
+
+    /// The sphere's centre in camera space, mm (perspective views only).
+    pub fn center_mm(&self) -> Option<Vec3> {
+        self.perspective.map(|p| p.center * self.radius_mm)
     }
 
     /// The surface point seen through the centre of pixel `(column, row)`, if any.
@@ -452,6 +520,7 @@ impl SphereView {
                     normal: Vec3::new(x, y, (1.0 - rho2).sqrt()),
                     to_camera: Vec3::Z,
                     inside_by_px: self.circle.radius_px - (pixel - self.circle.center_px).length(),
+                    position_mm: None,
                 })
             }
             Some(sphere) => {
@@ -471,6 +540,7 @@ impl SphereView {
                     normal: (hit - sphere.center).normalize(),
                     to_camera: -ray,
                     inside_by_px: self.circle.radius_px - (pixel - self.circle.center_px).length(),
+                    position_mm: Some(hit * self.radius_mm),
                 })
             }
         }
@@ -498,22 +568,29 @@ pub struct DroppedPixels {
     pub near_silhouette: usize,
     /// A channel at the format's maximum code value.
     pub saturated: usize,
-    /// NaN, infinite or negative.
+    /// NaN or infinite, or negative in a file without sensor levels.
     pub invalid: usize,
+    /// Zero in the entry's mask image.
+    pub masked: usize,
+    /// In a residual highlight (imperfect cross-polarisation; see `crate::highlight`).
+    pub highlight: usize,
 }
 
 /// Turns every usable pixel inside the silhouette into a [`Sample`].
 ///
-/// Radiance is converted to π·L/E with the light's irradiance. Pixels closer to the silhouette
-/// than `edge_margin_px`, saturated pixels and invalid (non-finite or negative) ones are dropped
-/// and counted.
+/// Radiance is converted to π·L/E with the light's irradiance at the pixel's point. Pixels
+/// closer to the silhouette than `edge_margin_px`, pixels a `mask` excludes (`false`; row-major,
+/// the image's size), saturated pixels and invalid ones (non-finite; negative unless
+/// `allow_negative`, which a raw-like file's noise around its black level needs) are dropped and
+/// counted.
 pub fn sample_sphere(
     view: &SphereView,
     image: &LinearImage,
-    light: &Light,
+    light: &Illumination,
     edge_margin_px: f32,
+    mask: Option<&[bool]>,
+    allow_negative: bool,
 ) -> (Vec<Sample>, DroppedPixels) {
-    let scale = Vec3::splat(std::f32::consts::PI) / light.irradiance;
     let (width, height) = (image.width as usize, image.height as usize);
     let mut samples = Vec::new();
     let mut dropped = DroppedPixels::default();
@@ -527,8 +604,12 @@ pub fn sample_sphere(
                 dropped.near_silhouette += 1;
                 continue;
             }
+            if mask.is_some_and(|mask| !mask.get(index).copied().unwrap_or(false)) {
+                dropped.masked += 1;
+                continue;
+            }
             let value = image.pixels[index];
-            if !(value.is_finite() && value.min_element() >= 0.0) {
+            if !(value.is_finite() && (allow_negative || value.min_element() >= 0.0)) {
                 dropped.invalid += 1;
                 continue;
             }
@@ -536,10 +617,11 @@ pub fn sample_sphere(
                 dropped.saturated += 1;
                 continue;
             }
+            let (to_light, irradiance) = light.at(point.position_mm);
             samples.push(Sample {
-                theta_rad: point.normal.dot(light.to_light).clamp(-1.0, 1.0).acos(),
+                theta_rad: point.normal.dot(to_light).clamp(-1.0, 1.0).acos(),
                 phi_rad: point.normal.dot(point.to_camera).clamp(-1.0, 1.0).acos(),
-                radiance: value * scale,
+                radiance: value * std::f32::consts::PI / irradiance,
                 pixel: index as u32,
             });
         }

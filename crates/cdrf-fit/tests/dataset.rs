@@ -64,8 +64,8 @@ fn bundled_dir() -> PathBuf {
 fn bundled_wax_spheres_manifest_loads() {
     let dataset = Dataset::load(&bundled_dir()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(dataset.camera.projection, Projection::Orthographic);
-    assert_eq!(dataset.light.to_light, Vec3::new(-1.0, 0.0, 0.0));
-    assert_eq!(dataset.light.irradiance, Vec3::ONE);
+    assert_eq!(dataset.light.to_light().unwrap(), Vec3::new(-1.0, 0.0, 0.0));
+    assert_eq!(dataset.light.given_strength().unwrap(), Vec3::ONE);
     let radii: Vec<f32> = dataset.spheres.iter().map(|s| s.radius_mm).collect();
     assert_eq!(
         radii,
@@ -147,12 +147,15 @@ color_space = "linear"
         }
     );
     assert_vec3_close(
-        dataset.light.to_light,
+        dataset.light.to_light().unwrap(),
         Vec3::new(-0.6, 0.0, 0.8),
         1e-7,
         "to_light",
     );
-    assert_eq!(dataset.light.irradiance, Vec3::new(2.0, 1.5, 0.5));
+    assert_eq!(
+        dataset.light.given_strength().unwrap(),
+        Vec3::new(2.0, 1.5, 0.5)
+    );
     let [a, b] = dataset.spheres.as_slice() else {
         panic!("expected 2 spheres, got {}", dataset.spheres.len());
     };
@@ -356,7 +359,8 @@ radius_mm = 20.0
         "{err:?}"
     );
 
-    let manifest = format!(
+    // Several spheres may share a photograph, but must decode it alike.
+    let shared = format!(
         "{CAMERA_AND_LIGHT}
 [[sphere]]
 image = \"same.exr\"
@@ -366,9 +370,13 @@ image = \"same.exr\"
 radius_mm = 25
 "
     );
-    let err = load_err(&manifest, &["same.exr"], &["same.exr", "twice"]);
+    let dir = folder(Some(&shared), &["same.exr"]);
+    let dataset = Dataset::load(dir.path()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(dataset.spheres[0].image, dataset.spheres[1].image);
+    let manifest = format!("{shared}exposure = 2\n");
+    let err = load_err(&manifest, &["same.exr"], &["same.exr", "exposure", "alike"]);
     assert!(
-        matches!(err, DatasetError::DuplicateImage { .. }),
+        matches!(err, DatasetError::SharedImageMismatch { .. }),
         "{err:?}"
     );
 }
@@ -464,7 +472,7 @@ fn light_problems() {
     let dataset = Dataset::load(dir.path()).unwrap_or_else(|e| panic!("{e}"));
     let h = std::f32::consts::FRAC_1_SQRT_2;
     assert_vec3_close(
-        dataset.light.to_light,
+        dataset.light.to_light().unwrap(),
         Vec3::new(-h, 0.0, h),
         1e-6,
         "huge to_light",

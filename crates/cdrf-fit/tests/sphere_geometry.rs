@@ -1,8 +1,8 @@
 //! Sphere detection and the pixel → normal mapping, on synthetic photographs with known truth.
 
-use cdrf_fit::dataset::{Light, Projection};
+use cdrf_fit::dataset::Projection;
 use cdrf_fit::image_io::{ColorSpace, LinearImage, SampleFormat};
-use cdrf_fit::sphere::{SphereView, detect_sphere, sample_sphere};
+use cdrf_fit::sphere::{Illumination, SphereView, detect_sphere, sample_sphere};
 use glam::{Vec2, Vec3};
 
 fn image(width: u32, height: u32, pixels: Vec<Vec3>) -> LinearImage {
@@ -74,11 +74,8 @@ fn perspective_theta_error(center: Vec3, radius: f32) -> (usize, f32, f32) {
         360,
         &detection.edge_points,
     );
-    let light = Light {
-        to_light,
-        irradiance: Vec3::ONE,
-    };
-    let (samples, _) = sample_sphere(&view, &photo, &light, 2.0);
+    let light = Illumination::directional(to_light, Vec3::ONE);
+    let (samples, _) = sample_sphere(&view, &photo, &light, 2.0, None, false);
     let (mut sum, mut worst) = (0.0_f32, 0.0_f32);
     for s in &samples {
         let normal = truth[s.pixel as usize].expect("sampled pixels are on the sphere");

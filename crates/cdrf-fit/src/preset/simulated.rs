@@ -144,6 +144,8 @@ pub fn fit_simulated(
             &sphere.image,
             &light,
             edge_margin_px(medium, &sphere, settings),
+            None,
+            false,
         );
         let name = format!("simulated sphere r = {radius_mm} mm");
         if sphere_samples.len() < settings.fit.min_samples {
@@ -162,6 +164,7 @@ pub fn fit_simulated(
             size_px: [sphere.image.width, sphere.image.height],
             detected: None,
             used_center_px: sphere.circle.center_px.to_array(),
+            center_mm: None,
             used_radius_px: sphere.circle.radius_px,
             samples: sphere_samples.len(),
             dropped,
