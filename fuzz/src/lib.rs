@@ -146,9 +146,20 @@ pub fn run(target: Target, input: &[u8], work: &Path) -> Result<(), String> {
         }
         Target::LutExr => cdrf_core::read_lut(&path).map(drop).map_err(|e| shown(&e)),
         Target::ReferenceExr => RgbaImage::read_exr(&path).map(drop).map_err(|e| shown(&e)),
-        Target::Photo => cdrf_fit::image_io::load_linear_image(&path, None, 1.0)
-            .map(drop)
-            .map_err(|e| shown(&e)),
+        // As it is, then as a raw-like file with sensor levels.
+        Target::Photo => {
+            cdrf_fit::image_io::load_linear_image(&path, None, 1.0).map_err(|e| shown(&e))?;
+            let levels = cdrf_fit::image_io::Decoding {
+                levels: Some(cdrf_fit::image_io::SensorLevels {
+                    black: 16,
+                    white: 240,
+                }),
+                ..Default::default()
+            };
+            cdrf_fit::image_io::load_linear_image_with(&path, &levels)
+                .map(drop)
+                .map_err(|e| shown(&e))
+        }
         Target::Obj => Mesh::load(&path).map(drop).map_err(|e| shown(&e)),
         // Geometry alone, then with materials, decoded textures and tangents.
         Target::Gltf => {
@@ -194,7 +205,19 @@ pub fn seeds(target: Target) -> Vec<(String, Vec<u8>)> {
         (format!("generated/{name}"), bytes)
     };
     match target {
-        Target::Manifest => vec![file("data/wax-spheres/cdrf-dataset.toml")],
+        Target::Manifest => vec![
+            file("data/wax-spheres/cdrf-dataset.toml"),
+            (
+                "generated/capture.toml".to_owned(),
+                b"[camera]\nprojection = \"perspective\"\nvertical_fov_deg = 12.5\n\
+                  [light]\nposition_mm = [-900.0, 150.0, -850.0]\n\
+                  [calibration]\nimage = \"sphere_r50.png\"\nradius_mm = 25.0\n\
+                  albedo = [0.5, 0.5, 0.5]\nblack_level = 512\nwhite_level = 16383\n\
+                  [[sphere]]\nimage = \"sphere_r50.png\"\nradius_mm = 15.0\n\
+                  black_level = 512\nwhite_level = 16383\nmask = \"sphere_r15.png\"\n"
+                    .to_vec(),
+            ),
+        ],
         Target::Scene => vec![
             file("data/scenes/bunny.toml"),
             file("data/scenes/sphere_r35.toml"),

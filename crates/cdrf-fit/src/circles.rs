@@ -27,8 +27,9 @@ const MIN_RADIUS_PX: usize = 8;
 /// Share of a ring's circumference that must lie on edges.
 const MIN_COVERAGE: f64 = 0.25;
 
-/// Finds `count` spheres in a linear RGB image (row-major, row 0 at the top), largest support
-/// first.
+/// Finds `count` spheres in a linear RGB image (row-major, row 0 at the top), best covered
+/// first, plus one more if the photograph clearly shows another (half its ring on edges): the
+/// caller cannot then tell by size alone which circle is which entry.
 ///
 /// # Errors
 /// When the image is black, or fewer than `count` circular silhouettes are found.
@@ -76,14 +77,15 @@ pub fn detect_spheres(
     }
     circles.sort_by(|a, b| b.2.total_cmp(&a.2));
     let mut chosen: Vec<(DVec2, f64)> = Vec::new();
-    for (centre, radius, _) in circles {
+    for (centre, radius, coverage) in circles {
         let overlaps = chosen
             .iter()
             .any(|(c, r)| (centre - *c).length() < radius + r - 2.0);
-        if !overlaps {
-            chosen.push((centre, radius));
+        if overlaps || (chosen.len() == count && coverage < 0.5) {
+            continue;
         }
-        if chosen.len() == count {
+        chosen.push((centre, radius));
+        if chosen.len() > count {
             break;
         }
     }

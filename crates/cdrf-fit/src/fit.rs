@@ -361,6 +361,17 @@ fn circles(
             }
         }
     };
+    let unplaced = photo
+        .members
+        .iter()
+        .filter(|(_, e)| e.center_px.is_none())
+        .count();
+    if detections.len() > count && unplaced > 0 {
+        return Err(FitError::Detection {
+            image: photo.first.image_name.clone(),
+            error: DetectionError::TooManySpheres { named: count },
+        });
+    }
     // Members with a manifest centre take the nearest circle; the others, by size.
     let mut assigned: Vec<Option<Detection>> = vec![None; count];
     for (slot, (_, entry)) in photo.members.iter().enumerate() {

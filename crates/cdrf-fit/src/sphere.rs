@@ -68,6 +68,15 @@ pub enum DetectionError {
         /// Boundary pixels in all.
         boundary: usize,
     },
+    /// A photograph shows more spheres than the manifest names in it, so size cannot say which
+    /// is which.
+    #[error(
+        "the photograph shows more spheres than the {named} the manifest names in it: give center_px for each entry of this image to say which is which"
+    )]
+    TooManySpheres {
+        /// Entries naming the photograph.
+        named: usize,
+    },
     /// A photograph of several spheres shows fewer circles than the manifest names.
     #[error(
         "the manifest names {wanted} spheres in this photograph but fewer were found ({error})"
