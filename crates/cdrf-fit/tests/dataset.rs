@@ -3,8 +3,10 @@
 
 use std::path::{Path, PathBuf};
 
-use cdrf_fit::dataset::{Dataset, DatasetError, MANIFEST_FILE_NAME, Projection};
-use cdrf_fit::image_io::ColorSpace;
+use cdrf_fit::dataset::{
+    Dataset, DatasetError, LightSource, LightStrength, MANIFEST_FILE_NAME, Projection,
+};
+use cdrf_fit::image_io::{ColorSpace, SensorLevels};
 use glam::{Vec2, Vec3};
 
 #[track_caller]
@@ -477,4 +479,140 @@ fn light_problems() {
         1e-6,
         "huge to_light",
     );
+}
+
+#[test]
+fn a_capture_manifest_with_a_lamp_a_reference_levels_and_a_mask() {
+    let manifest = r#"
+[camera]
+projection = "perspective"
+vertical_fov_deg = 20
+[light]
+position_mm = [-700, 300, -100]
+[calibration]
+image = "row.png"
+radius_mm = 25
+albedo = [0.5, 0.5, 0.5]
+black_level = 512
+white_level = 16383
+[[sphere]]
+image = "row.png"
+radius_mm = 10
+black_level = 512
+white_level = 16383
+mask = "mask.png"
+[[sphere]]
+image = "row.png"
+radius_mm = 20
+black_level = 512
+white_level = 16383
+"#;
+    let dir = folder(Some(manifest), &["row.png", "mask.png"]);
+    let dataset = Dataset::load(dir.path()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        dataset.light.source,
+        LightSource::Lamp {
+            position_mm: Vec3::new(-700.0, 300.0, -100.0)
+        }
+    );
+    assert_eq!(dataset.light.strength, LightStrength::Calibrated);
+    let calibration = dataset.calibration.as_ref().expect("calibration");
+    assert_eq!(calibration.albedo, Vec3::splat(0.5));
+    assert_eq!(
+        dataset.spheres[0].levels,
+        Some(SensorLevels {
+            black: 512,
+            white: 16383
+        })
+    );
+    assert!(
+        dataset.spheres[0]
+            .mask
+            .as_ref()
+            .unwrap()
+            .ends_with("mask.png")
+    );
+
+    // The mask must exist too.
+    let err = load_err(manifest, &["row.png"], &["mask.png", "no image file at"]);
+    assert!(matches!(err, DatasetError::ImageMissing { .. }), "{err:?}");
+    // A reference sphere and a given strength contradict each other.
+    let both = manifest.replace(
+        "position_mm = [-700, 300, -100]",
+        "position_mm = [-700, 300, -100]\nintensity = [1, 1, 1]",
+    );
+    let err = load_err(
+        &both,
+        &["row.png", "mask.png"],
+        &["[calibration]", "give one"],
+    );
+    assert!(matches!(err, DatasetError::Calibration { .. }), "{err:?}");
+    let albedo = manifest.replace("albedo = [0.5, 0.5, 0.5]", "albedo = [0.5, 1.5, 0.5]");
+    let err = load_err(&albedo, &["row.png", "mask.png"], &["albedo", "(0, 1]"]);
+    assert!(matches!(err, DatasetError::Calibration { .. }), "{err:?}");
+    // Entries sharing the photograph must decode it alike.
+    let unlike = manifest.replace(
+        "radius_mm = 20\nblack_level = 512",
+        "radius_mm = 20\nblack_level = 500",
+    );
+    let err = load_err(
+        &unlike,
+        &["row.png", "mask.png"],
+        &["row.png", "black_level"],
+    );
+    assert!(
+        matches!(err, DatasetError::SharedImageMismatch { .. }),
+        "{err:?}"
+    );
+}
+
+#[test]
+fn lamp_and_level_problems() {
+    let sphere = "[[sphere]]\nimage = \"a.png\"\nradius_mm = 15\n";
+    let perspective = "[camera]\nprojection = \"perspective\"\nvertical_fov_deg = 20\n";
+    let orthographic = "[camera]\nprojection = \"orthographic\"\n";
+    let cases: [(&str, &str, &[&str]); 7] = [
+        (
+            orthographic,
+            "[light]\nposition_mm = [0, 0, 0]\n",
+            &["perspective"],
+        ),
+        (
+            perspective,
+            "[light]\nto_light = [-1, 0, 0]\nposition_mm = [0, 0, 0]\n",
+            &["both", "keep one"],
+        ),
+        (
+            perspective,
+            "[light]\nirradiance = [1, 1, 1]\n",
+            &["to_light", "position_mm"],
+        ),
+        (
+            perspective,
+            "[light]\nposition_mm = [0, 0, 0]\nirradiance = [1, 1, 1]\n",
+            &["intensity"],
+        ),
+        (
+            perspective,
+            "[light]\nto_light = [-1, 0, 0]\nintensity = [1, 1, 1]\n",
+            &["irradiance"],
+        ),
+        (
+            perspective,
+            "[light]\nposition_mm = [1, 2, 3]\n[[sphere]]\nimage = \"a.png\"\nradius_mm = 20\nblack_level = 600\nwhite_level = 500\n",
+            &["black_level = 600", "below"],
+        ),
+        (
+            perspective,
+            "[light]\nposition_mm = [1, 2, 3]\n[[sphere]]\nimage = \"a.png\"\nradius_mm = 20\nblack_level = 60\n",
+            &["white_level"],
+        ),
+    ];
+    for (camera, light, needles) in cases {
+        load_err(&format!("{camera}{light}{sphere}"), &["a.png"], needles);
+    }
+    let srgb = format!(
+        "{perspective}[light]\nposition_mm = [1, 2, 3]\n[[sphere]]\nimage = \"a.png\"\nradius_mm = 15\ncolor_space = \"srgb\"\nwhite_level = 255\n"
+    );
+    load_err(&srgb, &["a.png"], &["linear", "srgb"]);
 }

@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use cdrf_fit::image_io::{
-    ColorSpace, ImageError, LinearImage, SampleFormat, load_linear_image, srgb_to_linear,
+    ColorSpace, Decoding, ImageError, LinearImage, SampleFormat, SensorLevels, load_linear_image,
+    load_linear_image_with, srgb_to_linear,
 };
 use glam::Vec3;
 use image::{ImageBuffer, Luma, Rgb, Rgba};
@@ -571,4 +572,69 @@ fn zero_width_png_is_an_error() {
         err.to_string().contains("zero.png") && err.to_string().contains("dimensions"),
         "{err}"
     );
+}
+
+#[test]
+fn raw_like_codes_with_sensor_levels() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("raw14.png");
+    // A 14-bit sensor's codes in a 16-bit PNG: black 512, clipping at 16383; noise dips below
+    // the black level.
+    let codes: [[u16; 3]; 4] = [
+        [512, 512, 512],
+        [500, 520, 8447],
+        [16383, 100, 100],
+        [16000, 16000, 16000],
+    ];
+    ImageBuffer::<Rgb<u16>, _>::from_fn(4, 1, |x, _| Rgb(codes[x as usize]))
+        .save(&path)
+        .unwrap();
+    let levels = SensorLevels {
+        black: 512,
+        white: 16383,
+    };
+    let decoding = Decoding {
+        levels: Some(levels),
+        exposure: 2.0,
+        ..Decoding::default()
+    };
+    let image = load_linear_image_with(&path, &decoding).unwrap();
+    let span = 16383.0 - 512.0;
+    assert_eq!(image.pixel(0, 0), Vec3::ZERO);
+    assert_vec3_close(
+        image.pixel(1, 0),
+        Vec3::new(-12.0, 8.0, 7935.0) / span * 2.0,
+        1e-6,
+        "below black stays negative",
+    );
+    assert_eq!(image.saturated, vec![false, false, true, false]);
+    assert_eq!(image.color_space, ColorSpace::Linear);
+
+    // Where levels cannot apply, the error names the file and why.
+    let srgb = Decoding {
+        color_space: Some(ColorSpace::Srgb),
+        ..decoding
+    };
+    let err = load_linear_image_with(&path, &srgb).unwrap_err();
+    assert!(
+        matches!(err, ImageError::Levels { .. }) && err.to_string().contains("raw14.png"),
+        "{err}"
+    );
+    let exr = dir.path().join("float.exr");
+    write_exr(&exr, 2, 2, |_, _| (0.5, 0.5, 0.5));
+    let err = load_linear_image_with(&exr, &decoding).unwrap_err();
+    assert!(err.to_string().contains("float"), "{err}");
+    let png8 = dir.path().join("p8.png");
+    pattern_u8().save(&png8).unwrap();
+    let err = load_linear_image_with(&png8, &decoding).unwrap_err();
+    assert!(err.to_string().contains("8-bit"), "{err}");
+    let in_range = Decoding {
+        levels: Some(SensorLevels {
+            black: 16,
+            white: 240,
+        }),
+        ..Decoding::default()
+    };
+    let image = load_linear_image_with(&png8, &in_range).unwrap();
+    assert_eq!(image.sample_format, SampleFormat::U8);
 }
