@@ -40,6 +40,8 @@ pub enum Target {
     ReferenceExr,
     /// A photograph (EXR, PNG, JPEG, TIFF): [`cdrf_fit::image_io::load_linear_image`].
     Photo,
+    /// A camera RAW / DNG photograph: [`cdrf_fit::image_io::load_linear_image`] on a `.dng`.
+    CameraRaw,
     /// Wavefront OBJ: [`Mesh::load`].
     Obj,
     /// glTF (JSON `.gltf` or binary `.glb`): [`Mesh::load`] and [`Mesh::load_with_surfaces`].
@@ -48,13 +50,14 @@ pub enum Target {
 
 impl Target {
     /// Every target, in the order `scripts/fuzz.sh` runs them.
-    pub const ALL: [Target; 8] = [
+    pub const ALL: [Target; 9] = [
         Target::Manifest,
         Target::Scene,
         Target::Gaussian,
         Target::LutExr,
         Target::ReferenceExr,
         Target::Photo,
+        Target::CameraRaw,
         Target::Obj,
         Target::Gltf,
     ];
@@ -68,6 +71,7 @@ impl Target {
             Target::LutExr => "lut_exr",
             Target::ReferenceExr => "reference_exr",
             Target::Photo => "photo",
+            Target::CameraRaw => "camera_raw",
             Target::Obj => "obj",
             Target::Gltf => "gltf",
         }
@@ -95,6 +99,8 @@ impl Target {
             Target::LutExr | Target::ReferenceExr => "input.exr",
             // The loader detects the format from the bytes, not the name.
             Target::Photo => "input.img",
+            // RAW files are recognised by their extension.
+            Target::CameraRaw => "input.dng",
             Target::Obj => "input.obj",
             Target::Gltf if input.starts_with(b"glTF") => "input.glb",
             Target::Gltf => "input.gltf",
@@ -160,6 +166,9 @@ pub fn run(target: Target, input: &[u8], work: &Path) -> Result<(), String> {
                 .map(drop)
                 .map_err(|e| shown(&e))
         }
+        Target::CameraRaw => cdrf_fit::image_io::load_linear_image(&path, None, 1.0)
+            .map(drop)
+            .map_err(|e| shown(&e)),
         Target::Obj => Mesh::load(&path).map(drop).map_err(|e| shown(&e)),
         // Geometry alone, then with materials, decoded textures and tangents.
         Target::Gltf => {
@@ -251,6 +260,7 @@ pub fn seeds(target: Target) -> Vec<(String, Vec<u8>)> {
                 file("data/lambert-control/sphere_r35.png"),
             ]
         }
+        Target::CameraRaw => vec![file("crates/cdrf-fit/tests/fixtures/bayer.dng")],
         Target::Obj => vec![
             ("generated/icosphere.obj".to_owned(), icosphere_obj()),
             (

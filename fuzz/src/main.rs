@@ -231,6 +231,7 @@ fn save_crash(
         Target::Manifest | Target::Scene | Target::Gaussian => "toml",
         Target::LutExr | Target::ReferenceExr => "exr",
         Target::Photo => "img",
+        Target::CameraRaw => "dng",
         Target::Obj => "obj",
         Target::Gltf if input.starts_with(b"glTF") => "glb",
         Target::Gltf => "gltf",

@@ -32,18 +32,26 @@
 //! |---|---|---|
 //! | `[camera]` `projection` | yes | `"orthographic"` (telecentric lens, or a long lens far away) or `"perspective"` |
 //! | `[camera]` `vertical_fov_deg` | with `"perspective"` only | full vertical field of view in degrees, in (0, 180); principal point at the image centre |
-//! | `[light]` `to_light` | yes | direction *toward* the (directional) light in camera space, `[x, y, z]`; normalised on load, must not be zero |
-//! | `[light]` `irradiance` | no, default `[1, 1, 1]` | irradiance per RGB channel on a surface facing the light; radiance is divided by it, so the table is relative to it. Each in [1e-30, 1e30] |
+//! | `[light]` `to_light` | one of the two | direction *toward* a directional (distant) light in camera space, `[x, y, z]`; normalised on load, must not be zero |
+//! | `[light]` `position_mm` | one of the two | a lamp's position in camera space, mm (pinhole at the origin); the direction and the irradiance `intensity / d²` are then per pixel. Needs `projection = "perspective"` |
+//! | `[light]` `irradiance` | no | directional light: irradiance per RGB channel on a surface facing it; radiance is divided by it. Each in [1e-30, 1e30] |
+//! | `[light]` `intensity` | no | lamp: a surface facing it at d mm receives `intensity / d²` (per channel, in the photographs' units). Each in [1e-30, 1e30] |
+//! | `[calibration]` | no | a matte (Lambertian) reference sphere under the same light that measures its strength; takes `albedo = [r, g, b]` (each in (0, 1]) and every `[[sphere]]` key; excludes `irradiance` / `intensity`. Without either, the table is *relative* (irradiance 1, or 1 at the first sphere's centre for a lamp) and the report says so |
 //! | `[[sphere]]` | at least one | one table per photograph of one sphere |
-//! | `image` | yes | file name relative to the folder, inside it (an absolute path or a `..` that leaves the folder is an error); OpenEXR, PNG, JPEG or TIFF |
+//! | `image` | yes | file name relative to the folder, inside it (an absolute path or a `..` that leaves the folder is an error); OpenEXR, PNG, JPEG or TIFF; several entries may share one |
 //! | `radius_mm` | yes | the sphere's radius in millimetres, > 0; radii must differ (curvature is 1 / radius) |
-//! | `center_px` | no | exactly two numbers: centre of the sphere's disk in continuous pixel coordinates `[column, row]`, `(0, 0)` = top-left corner of the top-left pixel; detected from the image if absent |
+//! | `center_px` | no | exactly two numbers: centre of the sphere's disk in continuous pixel coordinates `[column, row]`, `(0, 0)` = top-left corner of the top-left pixel; detected from the image if absent. In a photograph of several spheres the detected circles are matched to the entries that give no centre by size (largest disk, largest radius_mm), which holds when the spheres stand at similar distances; give centres otherwise |
 //! | `radius_px` | no | radius of the disk in pixels, > 0; detected if absent |
 //! | `color_space` | no | `"linear"` or `"srgb"`; default: linear for OpenEXR, float TIFF and 16-bit PNG/TIFF, sRGB for 8-bit PNG/JPEG/TIFF (see [`crate::image_io`]) |
 //! | `exposure` | no, default `1` | factor the decoded linear values are multiplied by (e.g. `2` for an image shot one stop darker than the others), > 0 |
+//! | `black_level`, `white_level` | no | a raw-like linear integer file's codes: `linear = (code − black) / (white − black)`, codes ≥ `white_level` are clipped; `white_level` is required with them, `black_level` defaults to 0 |
+//! | `mask` | no | an image of the photograph's size; pixels where it is 0 are not used (a stand or a cup in front of the sphere) |
+//! | `ambient_image` | no | the *flagged frame*: the same shot, nothing moved, with an opaque card between the lamp and the sphere so that only the light the room bounces onto it remains; decoded like `image` and subtracted pixel by pixel (the silhouette is still found in `image`) |
 //!
-//! Spheres keep the manifest's order. One sphere is accepted here; what can be fitted from one is
-//! the fitter's business.
+//! Several entries (spheres and the calibration) may name the same image: a photograph of
+//! several spheres. They must then decode it alike (`color_space`, `exposure`, levels). Spheres
+//! keep the manifest's order. One sphere is accepted here; what can be fitted from one is the
+//! fitter's business.
 
 use std::path::{Path, PathBuf};
 
@@ -160,6 +168,9 @@ pub struct SphereEntry {
     pub levels: Option<SensorLevels>,
     /// A mask image (same size; non-zero = use the pixel), if given.
     pub mask: Option<PathBuf>,
+    /// The flagged frame (the same shot with the lamp's direct light blocked from the sphere),
+    /// subtracted pixel by pixel, if given.
+    pub ambient: Option<PathBuf>,
 }
 
 impl SphereEntry {
@@ -459,6 +470,7 @@ struct RawSphere {
     black_level: Option<u16>,
     white_level: Option<u16>,
     mask: Option<String>,
+    ambient_image: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -476,6 +488,7 @@ struct RawCalibration {
     black_level: Option<u16>,
     white_level: Option<u16>,
     mask: Option<String>,
+    ambient_image: Option<String>,
 }
 
 cdrf_core::exact_array_fields!(
@@ -547,7 +560,9 @@ impl Dataset {
             .iter()
             .chain(dataset.calibration.as_ref().map(|c| &c.sphere));
         for sphere in entries {
-            let files = std::iter::once(&sphere.image).chain(sphere.mask.as_ref());
+            let files = std::iter::once(&sphere.image)
+                .chain(sphere.mask.as_ref())
+                .chain(sphere.ambient.as_ref());
             for path in files {
                 if !path.is_file() {
                     return Err(DatasetError::ImageMissing {
@@ -661,6 +676,7 @@ fn validate(raw: RawManifest, dir: PathBuf, manifest: PathBuf) -> Result<Dataset
                     black_level: c.black_level,
                     white_level: c.white_level,
                     mask: c.mask,
+                    ambient_image: c.ambient_image,
                 },
                 &dir,
                 &manifest,
@@ -684,6 +700,8 @@ fn validate(raw: RawManifest, dir: PathBuf, manifest: PathBuf) -> Result<Dataset
                 "exposure"
             } else if a.levels != b.levels {
                 "black_level / white_level"
+            } else if a.ambient != b.ambient {
+                "ambient_image"
             } else {
                 continue;
             };
@@ -876,6 +894,7 @@ fn validate_entry(s: RawSphere, dir: &Path, manifest: &Path) -> Result<SphereEnt
     };
     let path = resolve(&image)?;
     let mask = s.mask.as_deref().map(resolve).transpose()?;
+    let ambient = s.ambient_image.as_deref().map(resolve).transpose()?;
     Ok(SphereEntry {
         image: path,
         image_name: image,
@@ -886,5 +905,6 @@ fn validate_entry(s: RawSphere, dir: &Path, manifest: &Path) -> Result<SphereEnt
         exposure,
         levels,
         mask,
+        ambient,
     })
 }

@@ -118,6 +118,18 @@ pub enum FitError {
         /// The photograph's size.
         image_size: [u32; 2],
     },
+    /// A flagged frame is not the size of its photograph.
+    #[error("{image}: ambient_image {} is {}×{} px but the photograph is {}×{} px", ambient.display(), ambient_size[0], ambient_size[1], image_size[0], image_size[1])]
+    AmbientSize {
+        /// The photograph.
+        image: String,
+        /// The flagged frame.
+        ambient: std::path::PathBuf,
+        /// Its size.
+        ambient_size: [u32; 2],
+        /// The photograph's size.
+        image_size: [u32; 2],
+    },
     /// The reference sphere could not calibrate the light.
     #[error("{image}: calibration: {problem}")]
     Calibration {
@@ -484,10 +496,28 @@ fn sample_photo(
     options: &FitOptions,
     (image, decode_s): Decoded,
 ) -> Result<Vec<Sampled>, FitError> {
-    let image = image?;
+    let mut image = image?;
     let started = Instant::now();
     let (width, height) = (image.width as usize, image.height as usize);
     let circles = circles(photo, &image, options)?;
+    // The flagged frame: what the room alone sends the spheres, removed before sampling.
+    if let Some(path) = &photo.first.ambient {
+        let ambient = load_linear_image_with(path, &photo.first.decoding())?;
+        if [ambient.width, ambient.height] != [image.width, image.height] {
+            return Err(FitError::AmbientSize {
+                image: photo.first.image_name.clone(),
+                ambient: path.clone(),
+                ambient_size: [ambient.width, ambient.height],
+                image_size: [image.width, image.height],
+            });
+        }
+        for (pixel, light) in image.pixels.iter_mut().zip(&ambient.pixels) {
+            *pixel -= *light;
+        }
+        for (clipped, light_clipped) in image.saturated.iter_mut().zip(&ambient.saturated) {
+            *clipped |= *light_clipped;
+        }
+    }
     let light = Illumination {
         source: dataset.light.source,
         strength: match dataset.light.strength {
@@ -495,7 +525,9 @@ fn sample_photo(
             LightStrength::Calibrated | LightStrength::Relative => Vec3::ONE,
         },
     };
-    let allow_negative = photo.first.levels.is_some();
+    // Noise around a black level or a subtracted frame goes below zero; clipping it would bias
+    // the dark side's mean.
+    let allow_negative = photo.first.levels.is_some() || photo.first.ambient.is_some();
     let mut out = Vec::with_capacity(photo.members.len());
     for (&(member, entry), (circle, detection)) in photo.members.iter().zip(circles) {
         // Silhouette points only when the circle used is the detected one.

@@ -105,7 +105,7 @@ impl ColorSpace {
     pub fn default_for(sample_format: SampleFormat) -> Self {
         match sample_format {
             SampleFormat::U8 => Self::Srgb,
-            SampleFormat::U16 | SampleFormat::Float => Self::Linear,
+            SampleFormat::U16 | SampleFormat::Float | SampleFormat::Raw => Self::Linear,
         }
     }
 
@@ -127,6 +127,8 @@ pub enum SampleFormat {
     U16,
     /// Floating point (OpenEXR half/float, 32-bit float TIFF).
     Float,
+    /// A camera's raw sensor data (RAW, DNG), developed linearly.
+    Raw,
 }
 
 /// A decoded image: linear RGB radiance, row-major, row 0 at the top.
@@ -293,6 +295,9 @@ pub fn load_linear_image_with(path: &Path, decoding: &Decoding) -> Result<Linear
             exposure,
         });
     }
+    if is_camera_raw(path) {
+        return load_camera_raw(path, color_space, exposure, levels);
+    }
     let mut file =
         cdrf_core::input_file::open_regular(path, cdrf_core::input_file::MAX_INPUT_FILE_BYTES)
             .map_err(|error| read_error(path, error))?;
@@ -347,6 +352,61 @@ pub fn load_linear_image_with(path: &Path, decoding: &Decoding) -> Result<Linear
     }
     check_finite(path, &image)?;
     Ok(image)
+}
+
+/// Camera makers' own RAW formats: refused with a pointer to DNG (see `load_camera_raw`).
+const VENDOR_RAW_EXTENSIONS: &[&str] = &[
+    "cr2", "cr3", "crw", "nef", "nrw", "arw", "srf", "sr2", "raf", "orf", "rw2", "pef", "srw",
+    "erf", "3fr", "iiq", "mos", "mef", "kdc", "dcr",
+];
+
+fn extension(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+}
+
+/// DNG is TIFF inside, but its first image is usually a small preview: it is recognised by its
+/// extension, like the vendor formats.
+fn is_camera_raw(path: &Path) -> bool {
+    extension(path).is_some_and(|e| e == "dng" || VENDOR_RAW_EXTENSIONS.contains(&e.as_str()))
+}
+
+fn load_camera_raw(
+    path: &Path,
+    color_space: Option<ColorSpace>,
+    exposure: f32,
+    levels: Option<SensorLevels>,
+) -> Result<LinearImage, ImageError> {
+    if levels.is_some() {
+        return Err(levels_error(
+            path,
+            "a camera RAW file states its own levels; leave them out",
+        ));
+    }
+    if color_space == Some(ColorSpace::Srgb) {
+        return Err(ImageError::Unsupported {
+            path: path.to_path_buf(),
+            what: "color_space = \"srgb\" for a camera RAW file (it is decoded linearly)"
+                .to_owned(),
+        });
+    }
+    #[cfg(feature = "raw")]
+    {
+        let bytes =
+            cdrf_core::input_file::read_regular(path, cdrf_core::input_file::MAX_INPUT_FILE_BYTES)
+                .map_err(|error| read_error(path, error))?;
+        crate::camera_raw::decode_raw(path, bytes, exposure)
+    }
+    #[cfg(not(feature = "raw"))]
+    {
+        let _ = exposure;
+        Err(ImageError::Unsupported {
+            path: path.to_path_buf(),
+            what: "a camera RAW file, and this cdrf-fit was built without the `raw` feature"
+                .to_owned(),
+        })
+    }
 }
 
 /// The exact sRGB decoding curve (cdrf-core's, re-exported for this module's users).

@@ -25,6 +25,8 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+#[cfg(feature = "raw")]
+mod camera_raw;
 pub mod circles;
 pub mod curves;
 pub mod dataset;

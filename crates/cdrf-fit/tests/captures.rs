@@ -46,6 +46,20 @@ fn balls() -> Vec<Ball> {
 /// `highlight` × a Beckmann lobe of α = 0.1 on the wax stand-ins), else the wall. Also whether a
 /// dark bar across the r = 30 ball's lower third hides it there (`occluder`).
 fn radiance_at(x: f32, y: f32, highlight: f32, occluder: bool) -> f32 {
+    radiance_with_stray(x, y, highlight, occluder, Stray::None)
+}
+
+/// Light the room bounces onto the balls: irradiance rising toward +y (a lit ceiling, say).
+#[derive(Clone, Copy, PartialEq)]
+enum Stray {
+    None,
+    /// The lamp and the bounce light.
+    Added,
+    /// The flagged frame: the bounce light alone (the wall is still lit).
+    Only,
+}
+
+fn radiance_with_stray(x: f32, y: f32, highlight: f32, occluder: bool, stray: Stray) -> f32 {
     let focal = (HEIGHT as f32 / 2.0) / (FOV_DEG.to_radians() / 2.0).tan();
     let ray = Vec3::new(x - WIDTH as f32 / 2.0, HEIGHT as f32 / 2.0 - y, -focal).normalize();
     let mut best: Option<(f32, &Ball)> = None;
@@ -69,6 +83,14 @@ fn radiance_at(x: f32, y: f32, highlight: f32, occluder: bool) -> f32 {
         return 0.002;
     }
     let normal = (hit - ball.center_mm) / ball.radius_mm;
+    let bounce = ball.albedo * 0.02 * (1.0 + normal.y) / std::f32::consts::PI;
+    match stray {
+        Stray::None => {}
+        Stray::Added => {
+            return radiance_with_stray(x, y, highlight, occluder, Stray::None) + bounce;
+        }
+        Stray::Only => return bounce,
+    }
     let to_lamp = LAMP_MM - hit;
     let irradiance = INTENSITY / to_lamp.length_squared();
     let l = to_lamp.normalize();
@@ -90,6 +112,44 @@ fn radiance_at(x: f32, y: f32, highlight: f32, occluder: bool) -> f32 {
 /// Writes the photograph as a raw-like 16-bit PNG (codes with a black level; box filter, 3 × 3
 /// samples a pixel), the manifest and, for `mask`, the r = 30 ball's mask.
 fn write_capture(dir: &Path, highlight: f32, calibrated: bool, mask: bool, centers: bool) {
+    write_capture_with(dir, highlight, calibrated, mask, centers, false);
+}
+
+/// Writes one frame as raw-like 16-bit codes.
+fn write_frame(path: &Path, radiance: impl Fn(f32, f32) -> f32) {
+    let n = 3;
+    let mut codes = Vec::with_capacity((WIDTH * HEIGHT * 3) as usize);
+    for row in 0..HEIGHT {
+        for column in 0..WIDTH {
+            let mut sum = 0.0;
+            for sy in 0..n {
+                for sx in 0..n {
+                    sum += radiance(
+                        column as f32 + (sx as f32 + 0.5) / n as f32,
+                        row as f32 + (sy as f32 + 0.5) / n as f32,
+                    );
+                }
+            }
+            let code = (f32::from(BLACK) + sum / (n * n) as f32 * GAIN)
+                .round()
+                .min(f32::from(WHITE)) as u16;
+            codes.extend([code; 3]);
+        }
+    }
+    image::ImageBuffer::<image::Rgb<u16>, _>::from_raw(WIDTH, HEIGHT, codes)
+        .unwrap()
+        .save(path)
+        .unwrap();
+}
+
+fn write_capture_with(
+    dir: &Path,
+    highlight: f32,
+    calibrated: bool,
+    mask: bool,
+    centers: bool,
+    stray: bool,
+) {
     let n = 3;
     let mut codes = Vec::with_capacity((WIDTH * HEIGHT * 3) as usize);
     let mut mask_pixels = Vec::with_capacity((WIDTH * HEIGHT) as usize);
@@ -101,7 +161,8 @@ fn write_capture(dir: &Path, highlight: f32, calibrated: bool, mask: bool, cente
                 for sx in 0..n {
                     let x = column as f32 + (sx as f32 + 0.5) / n as f32;
                     let y = row as f32 + (sy as f32 + 0.5) / n as f32;
-                    sum += radiance_at(x, y, highlight, mask);
+                    let mode = if stray { Stray::Added } else { Stray::None };
+                    sum += radiance_with_stray(x, y, highlight, mask, mode);
                     hidden |= radiance_at(x, y, 0.0, true) != radiance_at(x, y, 0.0, false);
                 }
             }
@@ -120,7 +181,13 @@ fn write_capture(dir: &Path, highlight: f32, calibrated: bool, mask: bool, cente
         .unwrap()
         .save(dir.join("mask.png"))
         .unwrap();
-    let levels = format!("black_level = {BLACK}\nwhite_level = {WHITE}\n");
+    let mut levels = format!("black_level = {BLACK}\nwhite_level = {WHITE}\n");
+    if stray {
+        write_frame(&dir.join("row_flag.png"), |x, y| {
+            radiance_with_stray(x, y, 0.0, mask, Stray::Only)
+        });
+        levels += "ambient_image = \"row_flag.png\"\n";
+    }
     let mut manifest = format!(
         "[camera]\nprojection = \"perspective\"\nvertical_fov_deg = {FOV_DEG}\n\
          [light]\nposition_mm = [{}, {}, {}]\n",
@@ -233,7 +300,7 @@ fn a_row_of_spheres_under_a_lamp_calibrated_by_a_matte_sphere() {
 fn without_a_reference_the_table_is_relative_and_says_so() {
     // The matte sphere is still in the photograph but not named: sizes alone cannot say which
     // circle is which entry, so the fit asks for centres.
-    let error = try_fit(0.0, false, false, false).err().expect("ambiguous");
+    let error = try_fit(0.0, false, false, false).expect_err("ambiguous");
     assert!(error.to_string().contains("center_px"), "{error}");
     let fit = try_fit(0.0, false, false, true).unwrap_or_else(|e| panic!("{e}"));
     let light = fit.light.as_ref().expect("a data set fit");
@@ -288,4 +355,56 @@ fn a_mask_keeps_an_occluder_out_of_the_table() {
     let worst = worst_lit_error(&unmasked);
     println!("without the mask: {worst:?}");
     assert!(worst[2] > 0.1, "{worst:?}");
+}
+
+/// Mean of each sphere's curve over θ = 100…150° (the truth is 0: a Lambertian shadow side).
+fn shadow_mean(fit: &Fit) -> Vec<f32> {
+    let count = fit.table_curves[0].len();
+    (0..fit.table_curves.len())
+        .map(|k| {
+            let values: Vec<f32> = (0..count)
+                .filter(|&i| (100.0..=150.0).contains(&(i as f32 / (count - 1) as f32 * 180.0)))
+                .map(|i| fit.table_curves[k][i].x)
+                .collect();
+            values.iter().sum::<f32>() / values.len() as f32
+        })
+        .collect()
+}
+
+#[test]
+fn a_flagged_frame_removes_the_rooms_bounce_light() {
+    let run = |flagged: bool| {
+        let dir = tempfile::tempdir().unwrap();
+        write_capture_with(dir.path(), 0.0, true, false, false, true);
+        if !flagged {
+            let manifest = dir.path().join("cdrf-dataset.toml");
+            let text = std::fs::read_to_string(&manifest).unwrap();
+            std::fs::write(
+                &manifest,
+                text.replace("ambient_image = \"row_flag.png\"\n", ""),
+            )
+            .unwrap();
+        }
+        let dataset = Dataset::load(dir.path()).unwrap_or_else(|e| panic!("{e}"));
+        let options = FitOptions {
+            min_samples: 500,
+            ..FitOptions::default()
+        };
+        fit_dataset(&dataset, &options, |_| {}).unwrap_or_else(|e| panic!("{e}"))
+    };
+    let with = run(true);
+    let without = run(false);
+    let (shadow_with, shadow_without) = (shadow_mean(&with), shadow_mean(&without));
+    println!("shadow side with the flagged frame {shadow_with:?}, without {shadow_without:?}");
+    // The bounce light is ~0.6·0.02·(1 + n_y)/π·π/E ≈ 0.01–0.04 of π·L/E here.
+    assert!(
+        shadow_without.iter().all(|v| *v > 0.01),
+        "{shadow_without:?}"
+    );
+    assert!(
+        shadow_with.iter().all(|v| v.abs() < 0.002),
+        "{shadow_with:?}"
+    );
+    let worst = worst_lit_error(&with);
+    assert!(worst.iter().all(|w| *w < 0.02), "{worst:?}");
 }

@@ -638,3 +638,74 @@ fn raw_like_codes_with_sensor_levels() {
     let image = load_linear_image_with(&png8, &in_range).unwrap();
     assert_eq!(image.sample_format, SampleFormat::U8);
 }
+
+/// `tests/fixtures/bayer.dng` (written by `scripts/captures/dng.py`): a 32 × 24 RGGB sensor
+/// whose 2 × 2 block (bx, by) saw linear sRGB (0.05 (bx + 1), (by + 1) / 16, 0.3) through a
+/// camera that sees white as (0.5, 1, 0.7); block (3, 2) is clipped.
+#[cfg(feature = "raw")]
+#[test]
+fn dng_is_decoded_linearly_with_levels_white_balance_and_colour() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/bayer.dng");
+    let image = load_linear_image(&path, None, 1.0).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        (image.width, image.height),
+        (16, 12),
+        "one pixel per 2 × 2 block"
+    );
+    assert_eq!(image.sample_format, SampleFormat::Raw);
+    for by in 0..12 {
+        for bx in 0..16 {
+            let clipped = (bx, by) == (3, 2);
+            assert_eq!(
+                image.saturated[(by * 16 + bx) as usize],
+                clipped,
+                "({bx}, {by})"
+            );
+            if clipped {
+                continue;
+            }
+            let truth = Vec3::new(0.05 * (bx + 1) as f32, (by + 1) as f32 / 16.0, 0.3);
+            // 14-bit codes: a quantisation of 1/15871, through the matrix's rounding.
+            assert_vec3_close(
+                image.pixel(bx, by),
+                truth,
+                2e-3,
+                &format!("block ({bx}, {by})"),
+            );
+        }
+    }
+    // Levels belong to the file; a RAW file is linear.
+    let levels = Decoding {
+        levels: Some(SensorLevels {
+            black: 0,
+            white: 100,
+        }),
+        ..Decoding::default()
+    };
+    let err = load_linear_image_with(&path, &levels).unwrap_err();
+    assert!(err.to_string().contains("own levels"), "{err}");
+    // A truncated file is an error naming it, not a panic.
+    let dir = tempfile::tempdir().unwrap();
+    let cut = dir.path().join("cut.dng");
+    let bytes = std::fs::read(&path).unwrap();
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let err = load_linear_image(&cut, None, 1.0).unwrap_err();
+    assert!(err.to_string().contains("cut.dng"), "{err}");
+    std::fs::write(&cut, b"not a raw file at all").unwrap();
+    let err = load_linear_image(&cut, None, 1.0).unwrap_err();
+    assert!(err.to_string().contains("cut.dng"), "{err}");
+    // A header that claims a huge image is refused before its pixels are allocated.
+    let mut huge = bytes.clone();
+    let ifd = u32::from_le_bytes(huge[4..8].try_into().unwrap()) as usize;
+    let count = u16::from_le_bytes(huge[ifd..ifd + 2].try_into().unwrap()) as usize;
+    for k in 0..count {
+        let entry = ifd + 2 + 12 * k;
+        if u16::from_le_bytes(huge[entry..entry + 2].try_into().unwrap()) == 256 {
+            huge[entry + 2..entry + 4].copy_from_slice(&4u16.to_le_bytes());
+            huge[entry + 8..entry + 12].copy_from_slice(&200_000u32.to_le_bytes());
+        }
+    }
+    std::fs::write(&cut, &huge).unwrap();
+    let err = load_linear_image(&cut, None, 1.0).unwrap_err();
+    assert!(matches!(err, ImageError::TooLarge { .. }), "{err}");
+}

@@ -1,0 +1,112 @@
+//! The realistic captures of `data/captures/` (a lamp at 1 m, a perspective lens, a stand, a
+//! table, a grey wall, sensor noise, a residual highlight, RAW-like codes, JPEG, four spheres in
+//! one photograph; made by `scripts/captures/make_captures.py`) against the bundled fit of the
+//! ideal photographs of the same wax (`data/wax-fit/measured.exr`).
+//!
+//! Both tables are read as a renderer reads them, over the ideal photographs' own pixels (an
+//! orthographic view, the light at 90°), at each captured sphere's curvature; the sums over a θ
+//! region are compared. Bounds (issue 38): lit side (θ < 80°) within 2 %, terminator
+//! (80–110°) within 4 %, shadow side (110–150°) within 15 % or inside the fit's own 95 %
+//! confidence band for that region.
+
+use std::path::{Path, PathBuf};
+
+use cdrf_core::lut::{CdrfLut, Filter};
+use cdrf_fit::dataset::Dataset;
+use cdrf_fit::fit::{Fit, FitOptions, confidence_95, fit_dataset};
+use glam::Vec3;
+
+fn data_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data")
+}
+
+const REGIONS: [(&str, f32, f32, f32); 3] = [
+    ("lit", 0.0, 80.0, 0.02),
+    ("terminator", 80.0, 110.0, 0.04),
+    ("shadow", 110.0, 150.0, 0.15),
+];
+
+/// Sum of `lut` over the ideal photograph's pixels whose θ is in `[from, to)` degrees.
+fn region_sum(lut: &CdrfLut, curvature_per_mm: f32, from: f32, to: f32) -> Vec3 {
+    let n = 256;
+    let mut sum = Vec3::ZERO;
+    for j in 0..n {
+        for i in 0..n {
+            let (x, y) = (
+                (i as f32 + 0.5) / n as f32 * 2.0 - 1.0,
+                (j as f32 + 0.5) / n as f32 * 2.0 - 1.0,
+            );
+            let rho2 = x * x + y * y;
+            if rho2 >= 0.98 {
+                continue;
+            }
+            let normal = Vec3::new(x, y, (1.0 - rho2).sqrt());
+            let theta = normal.dot(Vec3::NEG_X).clamp(-1.0, 1.0).acos();
+            let phi = normal.z.clamp(-1.0, 1.0).acos();
+            if (from..to).contains(&theta.to_degrees()) {
+                sum += lut.evaluate(curvature_per_mm, theta, phi, Filter::Bilinear);
+            }
+        }
+    }
+    sum
+}
+
+/// The fit's 95 % band for sphere `k` pooled over the θ nodes of a region (relative).
+fn region_band(fit: &Fit, k: usize, from: f32, to: f32) -> f32 {
+    let band = confidence_95(&fit.curves.chosen, k);
+    let count = band.len();
+    let information: f32 = band
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| (from..to).contains(&(*i as f32 / (count - 1) as f32 * 180.0)))
+        .filter_map(|(_, b)| *b)
+        .map(|b| 1.0 / (b * b).max(1e-12))
+        .sum();
+    information.sqrt().recip()
+}
+
+/// Fits one capture set and checks every sphere's regions; returns the failures.
+fn check(case: &str) -> Vec<String> {
+    let ideal = cdrf_core::read_lut(data_dir().join("wax-fit/measured.exr"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let dataset =
+        Dataset::load(&data_dir().join("captures").join(case)).unwrap_or_else(|e| panic!("{e}"));
+    let fit = fit_dataset(&dataset, &FitOptions::default(), |_| {})
+        .unwrap_or_else(|e| panic!("{case}: {e}"));
+    let mut failures = Vec::new();
+    for (k, sphere) in fit.spheres.iter().enumerate() {
+        let kappa = 1.0 / sphere.radius_mm;
+        let mut line = format!("{case:>6} r = {:>2} mm:", sphere.radius_mm);
+        for (name, from, to, bound) in REGIONS {
+            let ratio = region_sum(&fit.lut, kappa, from, to) / region_sum(&ideal, kappa, from, to);
+            let band = region_band(&fit, k, from, to);
+            let off = (ratio - Vec3::ONE).abs().max_element();
+            line += &format!(
+                "  {name} {:+.1}/{:+.1}/{:+.1} % (band {:.1} %)",
+                100.0 * (ratio.x - 1.0),
+                100.0 * (ratio.y - 1.0),
+                100.0 * (ratio.z - 1.0),
+                100.0 * band
+            );
+            if off > bound && !(name == "shadow" && off <= band) {
+                failures.push(format!(
+                    "{case} r = {} mm {name}: {:.1} % off (bound {:.0} %)",
+                    sphere.radius_mm,
+                    100.0 * off,
+                    100.0 * bound
+                ));
+            }
+        }
+        println!("{line}");
+    }
+    failures
+}
+
+#[test]
+fn captures_agree_with_the_ideal_photographs() {
+    let failures: Vec<String> = ["lamp", "raw14", "jpeg", "multi"]
+        .into_iter()
+        .flat_map(check)
+        .collect();
+    assert!(failures.is_empty(), "{failures:#?}");
+}
