@@ -38,6 +38,7 @@ pub mod highlight;
 pub mod image_io;
 pub mod media;
 pub mod outputs;
+pub mod photographs;
 pub mod plot;
 pub mod preset;
 pub mod simulation;

@@ -23,8 +23,9 @@ use serde::Serialize;
 use crate::curves::{CORRECTION_PHI_COUNT, SphereSamples, ViewModel};
 use crate::evaluate::SphereError;
 use crate::fit::{
-    Fit, LightReport, ModelErrors, NOISY_BAND, SphereReport, Timings, confidence_95, noisy_ranges,
+    Fit, ModelErrors, NOISY_BAND, SphereReport, Timings, confidence_95, noisy_ranges,
 };
+use crate::photographs::LightReport;
 use crate::plot::{
     ColorScale, Colormap, LinePlot, LineStyle, Series, heatmap_png, rgb_png_srgb, upscale_nearest,
 };
@@ -687,7 +688,7 @@ fn radius_color(fit: &Fit, k: usize) -> [u8; 3] {
 fn radiance_plot(fit: &Fit) -> String {
     let settings = fit.curves.chosen.settings;
     let mut plot = LinePlot::new(
-        "Radiance against θ per radius: raw (dots, all φ) and φ-corrected f(θ) (lines), green",
+        "Radiance against θ per radius: raw (dots, all φ), φ-corrected f(θ) (lines) and its 95 % band (faint), green",
         "θ, angle between normal and light (degrees)",
         "π·L/E",
     )
@@ -706,13 +707,27 @@ fn radiance_plot(fit: &Fit) -> String {
             .enumerate()
             .map(|(a, v)| (theta_rad_at(a, settings.theta_count).to_degrees(), v.y))
             .collect();
+        let band = confidence_95(&fit.curves.chosen, k);
+        let edge = |sign: f32| -> Vec<(f32, f32)> {
+            fit.table_curves[k]
+                .iter()
+                .zip(&band)
+                .enumerate()
+                .map(|(a, (v, b))| {
+                    let theta = theta_rad_at(a, settings.theta_count).to_degrees();
+                    (theta, b.map_or(f32::NAN, |b| v.y * (1.0 + sign * b)))
+                })
+                .collect()
+        };
         plot = plot
             .with_series(Series::new("", color, raw).with_style(LineStyle::Markers))
             .with_series(Series::new(
                 format!("r = {} mm", sphere.radius_mm),
                 color,
                 corrected,
-            ));
+            ))
+            .with_series(Series::new("", color, edge(1.0)).with_style(LineStyle::Faint))
+            .with_series(Series::new("", color, edge(-1.0)).with_style(LineStyle::Faint));
     }
     plot.to_svg()
 }

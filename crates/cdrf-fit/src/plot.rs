@@ -44,6 +44,8 @@ pub enum LineStyle {
     Dashed,
     /// A small dot at each point, no line.
     Markers,
+    /// A thin, faint line: the edge of a confidence band.
+    Faint,
 }
 
 /// One curve of a [`LinePlot`].
@@ -365,15 +367,15 @@ impl LinePlot {
                     }
                     let _ = writeln!(svg, "</g>");
                 }
-                LineStyle::Solid | LineStyle::Dashed => {
-                    let dash = if series.style == LineStyle::Dashed {
-                        r#" stroke-dasharray="7 4""#
-                    } else {
-                        ""
+                LineStyle::Solid | LineStyle::Dashed | LineStyle::Faint => {
+                    let dash = match series.style {
+                        LineStyle::Dashed => r#" stroke-width="1.8" stroke-dasharray="7 4""#,
+                        LineStyle::Faint => r#" stroke-width="0.8" stroke-opacity="0.45""#,
+                        _ => r#" stroke-width="1.8""#,
                     };
                     let _ = writeln!(
                         svg,
-                        r#"<g class="series" fill="none" stroke="{color}" stroke-width="1.8" stroke-linejoin="round"{dash}>"#
+                        r#"<g class="series" fill="none" stroke="{color}" stroke-linejoin="round"{dash}>"#
                     );
                     for run in clipped_runs(mapped, area) {
                         svg.push_str(r#"<polyline points=""#);
@@ -466,15 +468,15 @@ impl LinePlot {
                         x + 20.0
                     );
                 }
-                LineStyle::Solid | LineStyle::Dashed => {
-                    let dash = if series.style == LineStyle::Dashed {
-                        r#" stroke-dasharray="7 4""#
-                    } else {
-                        ""
+                LineStyle::Solid | LineStyle::Dashed | LineStyle::Faint => {
+                    let dash = match series.style {
+                        LineStyle::Dashed => r#" stroke-width="2" stroke-dasharray="7 4""#,
+                        LineStyle::Faint => r#" stroke-width="1" stroke-opacity="0.45""#,
+                        _ => r#" stroke-width="2""#,
                     };
                     let _ = writeln!(
                         svg,
-                        r#"<line x1="{:.1}" y1="{cy:.1}" x2="{:.1}" y2="{cy:.1}" stroke="{color}" stroke-width="2"{dash}/>"#,
+                        r#"<line x1="{:.1}" y1="{cy:.1}" x2="{:.1}" y2="{cy:.1}" stroke="{color}"{dash}/>"#,
                         x + 8.0,
                         x + 32.0
                     );
