@@ -1,3 +1,4 @@
+#!/usr/bin/env python3
 """A minimal DNG writer for synthetic captures (tifffile): one uncompressed 16-bit Bayer image.
 
 The camera's native RGB is linear sRGB scaled by `neutral` (its response to white), so

@@ -28,14 +28,17 @@ Usage (venv python; export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-
   python make_captures.py check-flags    # flagged scenes: flag shadows cover every sphere, no flag over a disk
   nice -n 10 python make_captures.py render --only single_r10_flag single_r20_flag single_matte_flag --spp 256
   nice -n 10 python make_captures.py render --only single_r30_flag --spp 256
-  nice -n 10 python make_captures.py render --only multi_flag --spp 128
+  nice -n 10 python make_captures.py render --only multi_flag --spp 128   # all five flagged (ratios only)
+  nice -n 10 python make_captures.py render --only multi_flag_r50 multi_flag_r10 multi_flag_r20 multi_flag_r30 multi_flag_matte --spp 64
   nice -n 10 python make_captures.py render --only single_r50_flag --spp 192
   python make_captures.py degrade        # writes data/captures/{lamp,raw14,jpeg,multi}/
   python make_captures.py info           # scene geometry summary
 Scenes: single_r10, single_r20, single_r30 (in the cup), single_r50, single_matte (calibration),
 multi; and each one's flagged variant <name>_flag (the same scene plus one black flag per sphere
 between the lamp and the sphere: no direct lamp light on any sphere, the room's bounce light
-remains; degrade writes it as <stem>_flag.<ext>, the manifests' ambient_image).  The single-sphere photographs share one camera and one lamp (the manifest format has one
+remains; degrade writes it as <stem>_flag.<ext>, the manifests' ambient_image).  multi also has
+multi_flag_<r50|r10|r20|r30|matte>: only THAT sphere's flag (the other four stay lit, so their glow on
+it is kept); these are multi/'s ambient_images (one per entry); multi_flag is kept for the ratios.  The single-sphere photographs share one camera and one lamp (the manifest format has one
 [camera] and one [light] per data set): each sphere in turn sits on the same spot.
 """
 import os
@@ -991,6 +994,27 @@ FLAG_TOML_NOTE = (
     'the whole sphere with a 10 % angular margin: no direct lamp light on the sphere (so no highlight),\n'
     'only the bounce light of the room (wall, table). Subtract it pixel by pixel. The flag is outside\n'
     'every sphere\'s disk in the image.')
+MULTI_FLAGS = ['multi_flag_r50', 'multi_flag_r10', 'multi_flag_r20', 'multi_flag_r30', 'multi_flag_matte']
+MULTI_FLAG_NOISE = {'r50': 1, 'r10': 2, 'r20': 3, 'r30': 4, 'matte': 5}   # extra noise-seed word
+MULTI_FLAG_TOML_NOTE = (
+    'ambient_image = multi_flag_<sphere>.png (r50, r10, r20, r30, matte): ONE flagged frame PER SPHERE,\n'
+    'the same shot (nothing moved, same exposure and processing, its own sensor-noise draw) with an\n'
+    'opaque black card (a "flag": thin disk, diffuse 0.02) between the lamp and THAT sphere only, 150 mm\n'
+    'from its centre toward the lamp, its shadow covering the whole sphere with a 10 % angular margin: no\n'
+    'direct lamp light on that sphere (so no highlight); the other four spheres stay lit, so the frame\n'
+    'keeps the room\'s bounce light AND the glow of the lit neighbours (30 mm gaps) on it. Subtract it\n'
+    'pixel by pixel, each sphere with its own frame. The flag is outside every sphere\'s disk in the image.')
+MULTI_FLAG_TRUTH_NOTE = (
+    'multi_flag_<sphere>.png (r50, r10, r20, r30, matte): one flagged frame per sphere, the same shot with '
+    'ONE black flag (thin disk, two-sided diffuse 0.02) between the lamp and that sphere only (the other '
+    'four spheres stay lit, so their glow on it is kept), centred on the lamp -> sphere-centre line (150 mm '
+    'from the centre, or farther if needed to keep it off every disk; the same flag as that sphere\'s in '
+    'the all-flags frame of the previous version), radius such that its half-angle from the lamp is '
+    '1.1 asin(r / D) (shadow covers the sphere with a 10 % margin; checked analytically on 20001 surface '
+    'points, see flag_shadow_max_offset_over_radius); no flag over any sphere\'s disk (4x4 subsamples per '
+    'pixel). Same gain / exposure / levels as the lit frame, its own sensor-noise realisation (noise_seed), '
+    'no residual highlight; own Monte-Carlo seeds (75100, 75200, ... + pass). Flag geometry per image in '
+    'images[...].flags.')
 FLAG_TRUTH_NOTE = (
     '<stem>_flag.<ext>: the same shot with one black flag (thin disk, two-sided diffuse 0.02) per sphere '
     'between the lamp and the sphere, centred on the lamp -> sphere-centre line 150 mm from the centre, '
@@ -1010,6 +1034,7 @@ def degrade(args):
     scenes = all_scenes()
     allsc = SINGLES + ['single_matte', 'multi']
     allsc += [n + '_flag' for n in allsc]
+    allsc += MULTI_FLAGS
     R = {n: load_exr(os.path.join(work, n + '.exr')) for n in allsc}
     T = {n: json.load(open(os.path.join(work, n + '.json'))) for n in allsc}
     LAB = {n: label_image(scenes[n], 1) for n in allsc}
@@ -1029,10 +1054,14 @@ def degrade(args):
         sh = flag_shadow_check(scenes[n + '_flag'])
         assert max(sh.values()) < 1, sh
         HL[n + '_flag'] = np.zeros(R[n].shape[:2])
+    for n in MULTI_FLAGS:                  # per-sphere multi frames: only that sphere is flagged
+        sh = flag_shadow_check(scenes[n])
+        assert len(sh) == 1 and max(sh.values()) < 1, sh
+        HL[n] = np.zeros(R[n].shape[:2])
     prev = os.path.join(work, 'previews')
     os.makedirs(prev, exist_ok=True)
     for n in HL:
-        if n.endswith('_flag'):
+        if n.endswith('_flag') or n in MULTI_FLAGS:
             continue
         save_exr(np.repeat(HL[n][..., None], 3, -1), os.path.join(work, n + '_highlight.exr'))
 
@@ -1239,27 +1268,38 @@ def degrade(args):
     t = img_truth(n)
     t['clipped_pixels'] = int((codes >= WHITE).any(-1).sum())
     t['highlight_peak_radiance'] = float(HL[n].max())
-    # flagged frame: same gain, its own noise realisation, no highlight
-    radf = R['multi_flag'] + HL['multi_flag'][..., None]
-    rng = np.random.default_rng([NOISE_SEED, SEEDS[n], 14, 1])
-    codesf = raw_codes(sensor_electrons(radf, km, rng))
-    pf = os.path.join(mf, 'multi_flag.png')
-    write_png16(pf, codesf)
-    read_png16_check(pf, codesf)
-    save_preview((codesf - BLACK) / (WHITE - BLACK), os.path.join(prev, 'multi_multi_flag.png'), 1 / 0.7)
-    save_preview((codesf - BLACK) / (WHITE - BLACK), os.path.join(prev, 'multi_multi_flag_x20.png'), 20 / 0.7)
-    tf = img_truth('multi_flag')
-    tf['clipped_pixels'] = int((codesf >= WHITE).any(-1).sum())
-    tf['highlight_peak_radiance'] = 0.0
-    tf['flagged_frame_of'] = 'multi.png'
+    # flagged frames, one per sphere (only that sphere's flag; the other four stay lit): same
+    # gain, each its own noise realisation (seed list + [1, j]), no highlight on the flagged sphere
+    # (the lit neighbours' first-surface highlights are not seen by the flagged sphere's pixels and
+    # are left out of these frames, as in every flagged frame)
+    images_m = {'multi.png': t}
+    for nf in MULTI_FLAGS:
+        short = nf[len('multi_flag_'):]
+        radf = R[nf] + HL[nf][..., None]
+        rng = np.random.default_rng([NOISE_SEED, SEEDS[n], 14, 1, MULTI_FLAG_NOISE[short]])
+        codesf = raw_codes(sensor_electrons(radf, km, rng))
+        pf = os.path.join(mf, nf + '.png')
+        write_png16(pf, codesf)
+        read_png16_check(pf, codesf)
+        save_preview((codesf - BLACK) / (WHITE - BLACK), os.path.join(prev, f'multi_{nf}.png'), 1 / 0.7)
+        tf = img_truth(nf)
+        tf['clipped_pixels'] = int((codesf >= WHITE).any(-1).sum())
+        tf['highlight_peak_radiance'] = 0.0
+        tf['flagged_frame_of'] = 'multi.png'
+        tf['flagged_sphere'] = scenes[nf]['flags'][0]['of']
+        tf['noise_seed'] = [NOISE_SEED, SEEDS[n], 14, 1, MULTI_FLAG_NOISE[short]]
+        images_m[nf + '.png'] = tf
+    stale = os.path.join(mf, 'multi_flag.png')   # the old all-flags frame: no entry names it
+    if os.path.exists(stale):
+        os.remove(stale)
     order = ', '.join(f'{s["name"]}' for s in sc['spheres'])
     truth_m = {'case': 'multi: four wax spheres and the matte calibration sphere in one raw14-style frame',
                'pixel_model': raw_model, 'highlight': hl_note, 'k_electrons_per_radiance': km,
                'brightest_wax_radiance_incl_highlight_3x3box': mxm,
                'true_intensity_linear_units': [Im] * 3,
                'true_intensity_codes_above_black': [Im * (WHITE - BLACK)] * 3,
-               'left_to_right': order, 'flagged_frames': FLAG_TRUTH_NOTE,
-               'images': {'multi.png': t, 'multi_flag.png': tf}}
+               'left_to_right': order, 'flagged_frames': MULTI_FLAG_TRUTH_NOTE,
+               'images': images_m}
     toml_m = toml_head(
         'multi/: one photograph, 1400x600, of four wax spheres (r = 50, 10, 20, 30 mm) and the matte\n'
         f'calibration sphere (Lambertian albedo 0.5, r = 25 mm), left to right: {order}.\n'
@@ -1269,14 +1309,15 @@ def degrade(args):
         + setup + '\n'
         f'Sensor as raw14/ (brightest wax pixel ~70 % of the {FULL_WELL:.0f} e- well, shot + read noise, black level\n'
         f'{BLACK}, 14-bit codes in 16-bit PNG), {HL_FRACTION * 100:.0f} % residual highlight. Intensity unknown: the\n'
-        'matte sphere in the same frame calibrates it.\n' + FLAG_TOML_NOTE
-        + '\nIn multi_flag.png every sphere has its own flag, so all five entries name the same frame; it therefore\n'
-        'also lacks the glow the lit neighbours throw onto each sphere (30 mm gaps), which multi.png - multi_flag.png\n'
-        'keeps: it dominates the shadow sides here (see README.md, flagged frames).', sc)
-    toml_m += toml_calib('multi.png', 'linear', True, 'multi_flag.png')
+        'matte sphere in the same frame calibrates it.\n' + MULTI_FLAG_TOML_NOTE, sc)
+    for s in sc['spheres']:
+        if s['material'] != 'wax':
+            toml_m += toml_calib('multi.png', 'linear', True,
+                                 f'multi_flag_{MULTI_FLAG_SHORT[s["name"]]}.png')
     for s in sc['spheres']:
         if s['material'] == 'wax':
-            toml_m += toml_sphere('multi.png', s['radius_mm'], 'linear', True, None, 'multi_flag.png')
+            toml_m += toml_sphere('multi.png', s['radius_mm'], 'linear', True, None,
+                                  f'multi_flag_{MULTI_FLAG_SHORT[s["name"]]}.png')
     dump(mf, truth_m, toml_m)
     summary['multi'] = {'k': km, 'I_lin': Im}
 
@@ -1301,6 +1342,25 @@ def degrade(args):
                     rr[reg] = {'pixels': int(m.sum()), 'flag_over_lit_rgb': (a / b).tolist(),
                                'lit_mean_rgb': b.tolist(), 'flag_mean_rgb': a.tolist()}
             ratios[f'{n}:{s["name"]}'] = rr
+            if n == 'multi':               # the sphere's own flagged frame (only its flag)
+                nf = 'multi_flag_' + MULTI_FLAG_SHORT[s['name']]
+                ro = {}
+                for reg, m in (('shadow(theta>110)', inner & (th > 110)), ('lit(theta<60)', inner & (th < 60))):
+                    a = R[nf][m].mean(0)
+                    b = R[n][m].mean(0)
+                    ro[reg] = {'pixels': int(m.sum()), 'own_flag_over_lit_rgb': (a / b).tolist(),
+                               'all_flags_over_lit_rgb': (R['multi_flag'][m].mean(0) / b).tolist()}
+                if s['material'] != 'wax':  # matte: (lit - own flag) / Lambert on the lit side
+                    d2 = np.einsum('...i,...i', np.array(sc['lamp_mm']) - P, np.array(sc['lamp_mm']) - P)
+                    cth = np.cos(np.radians(th))
+                    m = inner & (th < 60)
+                    pred = MATTE_ALBEDO / np.pi * sc['lamp_intensity'] * cth / d2
+                    ro['matte_lit_minus_own_flag_over_lambert_rgb'] = (
+                        (R[n][m] - R[nf][m]).mean(0) / pred[m].mean()).tolist()
+                    ro['matte_lit_minus_all_flags_over_lambert_rgb'] = (
+                        (R[n][m] - R['multi_flag'][m]).mean(0) / pred[m].mean()).tolist()
+                    ro['matte_lit_over_lambert_rgb'] = (R[n][m].mean(0) / pred[m].mean()).tolist()
+                ratios[f'{nf}:{s["name"]}'] = ro
     summary['flag_over_lit'] = ratios
     # lamp/ intensity check: matte code/65535 vs albedo/pi * I cos(theta) / d^2 on cos(theta) > 0.5,
     # pixels away from the silhouette (edge pixels mix in the wall, which the flagged frame keeps)
