@@ -29,7 +29,8 @@ Usage (venv python; export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-
   nice -n 10 python make_captures.py render --only single_r10_flag single_r20_flag single_matte_flag --spp 256
   nice -n 10 python make_captures.py render --only single_r30_flag --spp 256
   nice -n 10 python make_captures.py render --only multi_flag --spp 128   # all five flagged (ratios only)
-  nice -n 10 python make_captures.py render --only multi_flag_r50 multi_flag_r10 multi_flag_r20 multi_flag_r30 multi_flag_matte --spp 64
+  nice -n 10 python make_captures.py render --only multi_flag_r50 --spp 64
+  nice -n 10 python make_captures.py render --only multi_flag_r10 multi_flag_r20 multi_flag_r30 multi_flag_matte --spp 32
   nice -n 10 python make_captures.py render --only single_r50_flag --spp 192
   python make_captures.py degrade        # writes data/captures/{lamp,raw14,jpeg,multi}/
   python make_captures.py info           # scene geometry summary

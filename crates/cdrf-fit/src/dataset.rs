@@ -46,7 +46,7 @@
 //! | `exposure` | no, default `1` | factor the decoded linear values are multiplied by (e.g. `2` for an image shot one stop darker than the others), > 0 |
 //! | `black_level`, `white_level` | no | a raw-like linear integer file's codes: `linear = (code − black) / (white − black)`, codes ≥ `white_level` are clipped; `white_level` is required with them, `black_level` defaults to 0 |
 //! | `mask` | no | an image of the photograph's size; pixels where it is 0 are not used (a stand or a cup in front of the sphere) |
-//! | `ambient_image` | no | the *flagged frame*: the same shot, nothing moved, with an opaque card between the lamp and the sphere so that only the light the room bounces onto it remains; decoded like `image` and subtracted pixel by pixel (the silhouette is still found in `image`) |
+//! | `ambient_image` | no | the *flagged frame*: the same shot, nothing moved, with an opaque card between the lamp and this sphere so that only the light the room (and lit neighbours) bounce onto it remains; decoded like `image` and subtracted pixel by pixel from this sphere's pixels (the silhouette is still found in `image`). Entries sharing a photograph each name their own |
 //!
 //! Several entries (spheres and the calibration) may name the same image: a photograph of
 //! several spheres. They must then decode it alike (`color_space`, `exposure`, levels). Spheres
@@ -700,8 +700,6 @@ fn validate(raw: RawManifest, dir: PathBuf, manifest: PathBuf) -> Result<Dataset
                 "exposure"
             } else if a.levels != b.levels {
                 "black_level / white_level"
-            } else if a.ambient != b.ambient {
-                "ambient_image"
             } else {
                 continue;
             };

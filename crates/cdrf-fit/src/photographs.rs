@@ -2,8 +2,8 @@
 //!
 //! The entries of a data set are grouped by photograph (several spheres, and the calibration
 //! sphere, may share one), each photograph is decoded once — the next one while this one is
-//! sampled — its flagged frame subtracted, its spheres found and matched to the entries, and
-//! each sphere's pixels turned into samples (masks, highlights). Radiance is sampled for a
+//! sampled — its spheres found and matched to the entries, and each sphere's pixels, less its
+//! own flagged frame, turned into samples (masks, highlights). Radiance is sampled for a
 //! light of strength 1 and divided by the strength at the end: the manifest's, the one the
 //! matte reference sphere measures, or (unknown) a relative one.
 
@@ -293,6 +293,31 @@ fn circles(
         .collect()
 }
 
+/// `image` minus the entry's flagged frame (decoded alike); a pixel clipped in either is clipped.
+fn subtract_flagged(
+    image: &LinearImage,
+    entry: &SphereEntry,
+    path: &std::path::Path,
+) -> Result<LinearImage, FitError> {
+    let ambient = load_linear_image_with(path, &entry.decoding())?;
+    if [ambient.width, ambient.height] != [image.width, image.height] {
+        return Err(FitError::AmbientSize {
+            image: entry.image_name.clone(),
+            ambient: path.to_path_buf(),
+            ambient_size: [ambient.width, ambient.height],
+            image_size: [image.width, image.height],
+        });
+    }
+    let mut out = image.clone();
+    for (pixel, light) in out.pixels.iter_mut().zip(&ambient.pixels) {
+        *pixel -= *light;
+    }
+    for (clipped, light_clipped) in out.saturated.iter_mut().zip(&ambient.saturated) {
+        *clipped |= *light_clipped;
+    }
+    Ok(out)
+}
+
 /// A mask image as one flag per pixel (non-zero = use), checked against the photograph's size.
 fn load_mask(
     entry: &SphereEntry,
@@ -332,28 +357,10 @@ fn sample_photo(
     options: &FitOptions,
     (image, decode_s): Decoded,
 ) -> Result<Vec<Sampled>, FitError> {
-    let mut image = image?;
+    let image = image?;
     let started = Instant::now();
     let (width, height) = (image.width as usize, image.height as usize);
     let circles = circles(photo, &image, options)?;
-    // The flagged frame: what the room alone sends the spheres, removed before sampling.
-    if let Some(path) = &photo.first.ambient {
-        let ambient = load_linear_image_with(path, &photo.first.decoding())?;
-        if [ambient.width, ambient.height] != [image.width, image.height] {
-            return Err(FitError::AmbientSize {
-                image: photo.first.image_name.clone(),
-                ambient: path.clone(),
-                ambient_size: [ambient.width, ambient.height],
-                image_size: [image.width, image.height],
-            });
-        }
-        for (pixel, light) in image.pixels.iter_mut().zip(&ambient.pixels) {
-            *pixel -= *light;
-        }
-        for (clipped, light_clipped) in image.saturated.iter_mut().zip(&ambient.saturated) {
-            *clipped |= *light_clipped;
-        }
-    }
     let light = Illumination {
         source: dataset.light.source,
         strength: match dataset.light.strength {
@@ -363,7 +370,7 @@ fn sample_photo(
     };
     // Noise around a black level or a subtracted frame goes below zero; clipping it would bias
     // the dark side's mean.
-    let allow_negative = photo.first.levels.is_some() || photo.first.ambient.is_some();
+    let allow_negative = photo.first.levels.is_some();
     let mut out = Vec::with_capacity(photo.members.len());
     for (&(member, entry), (circle, detection)) in photo.members.iter().zip(circles) {
         // Silhouette points only when the circle used is the detected one.
@@ -383,13 +390,19 @@ fn sample_photo(
             Some(path) => Some(load_mask(entry, path, [image.width, image.height])?),
             None => None,
         };
+        // Its flagged frame: what the room (and, in a photograph of several, the lit
+        // neighbours) send the sphere without the lamp's direct light, removed before sampling.
+        let flagged = match &entry.ambient {
+            Some(path) => Some(subtract_flagged(&image, entry, path)?),
+            None => None,
+        };
         let (mut samples, mut dropped) = sample_sphere(
             &view,
-            &image,
+            flagged.as_ref().unwrap_or(&image),
             &light,
             options.edge_margin_px,
             mask.as_deref(),
-            allow_negative,
+            allow_negative || entry.ambient.is_some(),
         );
         if member != Member::Calibration {
             dropped.highlight = reject_highlights(&mut samples, |sample| {
