@@ -15,6 +15,10 @@
 //! | TIFF, PNG (`.png`) | 16-bit | **linear** | a channel is 65535 |
 //! | TIFF, PNG | 8-bit | sRGB | a channel is 255 |
 //! | JPEG (`.jpg`, `.jpeg`) | 8-bit | sRGB | a channel is ≥ 250 ([`JPEG_SATURATION_CODE`]) |
+//! | DNG (`.dng`, by extension; feature `raw`) | the sensor's | linear (developed: `crate::camera_raw`) | a sample reaches the white level |
+//!
+//! Integer files that hold a sensor's codes as they are take [`SensorLevels`] ([`Decoding`]):
+//! black and white level, values below black kept negative.
 //!
 //! 16-bit files default to **linear** because that is how measurement photographs are made: a
 //! raw converter writing 16 bits for analysis (`dcraw -4`, `darktable`/RawTherapee with a
@@ -193,7 +197,7 @@ pub enum ImageError {
     /// Not a format (or a variant of one) that this module decodes.
     #[error(
         "{}: unsupported image: {what}; supported: OpenEXR (.exr), PNG (.png), JPEG (.jpg, \
-         .jpeg) and TIFF (.tif, .tiff), 8/16-bit or float, grey or RGB(A)",
+         .jpeg) and TIFF (.tif, .tiff), 8/16-bit or float, grey or RGB(A); camera RAW as DNG (.dng)",
         path.display()
     )]
     Unsupported {
