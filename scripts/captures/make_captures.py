@@ -530,6 +530,19 @@ def sphere_normals(sc, s, sub=1):
     return P.reshape(*shp, 3), N.reshape(*shp, 3)
 
 
+def sphere_angles(sc, s):
+    """Per pixel centre on sphere s: theta to the lamp (degrees), its cosine, the squared
+    distance to the lamp, and the mask of pixels at least ~1.5 px inside the silhouette
+    (cos(view) > sqrt(2 * 1.5 / R_px)); nan / False where the ray misses the sphere."""
+    P, N = sphere_normals(sc, s)
+    Lv = np.array(sc['lamp_mm']) - P
+    d2 = np.einsum('...i,...i', Lv, Lv)
+    cth = np.einsum('...i,...i', N, Lv) / np.sqrt(d2)
+    cosv = np.einsum('...i,...i', N, -P / np.linalg.norm(P, axis=-1, keepdims=True))
+    inner = cosv > np.sqrt(2 * 1.5 / projected_ellipse(sc, s)['equivalent_radius_px'])
+    return np.degrees(np.arccos(np.clip(cth, -1, 1))), cth, d2, inner
+
+
 # ---------------------------------------------------------------------------------------------
 # Residual highlight (analytic, box-filtered over sub x sub subsamples per pixel)
 # ---------------------------------------------------------------------------------------------
@@ -767,16 +780,8 @@ def finalize(sc_name, sc, work):
                        'to the lamp at the pixel-centre hit point; only pixels whose centre sees the '
                        'sphere unoccluded and at least 1.5 px inside the silhouette'}
     for k, s in enumerate(sc['spheres']):
-        P, N = sphere_normals(sc, s)
-        Lv = np.array(sc['lamp_mm']) - P
-        Lv /= np.linalg.norm(Lv, axis=-1, keepdims=True)
-        th = np.degrees(np.arccos(np.clip(np.einsum('...i,...i', N, Lv), -1, 1)))
-        Vv = -P / np.linalg.norm(P, axis=-1, keepdims=True)
-        cosv = np.einsum('...i,...i', N, Vv)
-        # keep away from the silhouette: cos(view) > ~ sqrt(2*1.5/R_px)
-        rpx = s['projection']['equivalent_radius_px'] if 'projection' in s else \
-            projected_ellipse(sc, s)['equivalent_radius_px']
-        inner = (lab == k) & (cosv > np.sqrt(2 * 1.5 / rpx))
+        th, _, _, inner = sphere_angles(sc, s)
+        inner &= lab == k
         noise[s['name']] = {
             'all': region_noise(mean, A, B, inner),
             'lit(theta<60)': region_noise(mean, A, B, inner & (th < 60)),
@@ -1327,14 +1332,8 @@ def degrade(args):
     for n in SINGLES + ['single_matte', 'multi']:
         sc = scenes[n]
         for k, s in enumerate(sc['spheres']):
-            P, N = sphere_normals(sc, s)
-            Lv = np.array(sc['lamp_mm']) - P
-            Lv /= np.linalg.norm(Lv, axis=-1, keepdims=True)
-            th = np.degrees(np.arccos(np.clip(np.einsum('...i,...i', N, Lv), -1, 1)))
-            Vv = -P / np.linalg.norm(P, axis=-1, keepdims=True)
-            cosv = np.einsum('...i,...i', N, Vv)
-            rpx = projected_ellipse(sc, s)['equivalent_radius_px']
-            inner = (LAB[n] == k) & (cosv > np.sqrt(2 * 1.5 / rpx))
+            th, cth, d2, inner = sphere_angles(sc, s)
+            inner &= LAB[n] == k
             rr = {}
             for reg, m in (('shadow(theta>110)', inner & (th > 110)), ('lit(theta<60)', inner & (th < 60))):
                 if m.sum():
@@ -1352,8 +1351,6 @@ def degrade(args):
                     ro[reg] = {'pixels': int(m.sum()), 'own_flag_over_lit_rgb': (a / b).tolist(),
                                'all_flags_over_lit_rgb': (R['multi_flag'][m].mean(0) / b).tolist()}
                 if s['material'] != 'wax':  # matte: (lit - own flag) / Lambert on the lit side
-                    d2 = np.einsum('...i,...i', np.array(sc['lamp_mm']) - P, np.array(sc['lamp_mm']) - P)
-                    cth = np.cos(np.radians(th))
                     m = inner & (th < 60)
                     pred = MATTE_ALBEDO / np.pi * sc['lamp_intensity'] * cth / d2
                     ro['matte_lit_minus_own_flag_over_lambert_rgb'] = (
@@ -1367,13 +1364,8 @@ def degrade(args):
     # pixels away from the silhouette (edge pixels mix in the wall, which the flagged frame keeps)
     sc = scenes['single_matte']
     s = sc['spheres'][0]
-    P, N = sphere_normals(sc, s)
-    Lv = np.array(sc['lamp_mm']) - P
-    d2 = np.einsum('...i,...i', Lv, Lv)
-    cth = np.einsum('...i,...i', N, Lv) / np.sqrt(d2)
-    cosv = np.einsum('...i,...i', N, -P / np.linalg.norm(P, axis=-1, keepdims=True))
-    m = (LAB['single_matte'] == 0) & (cth > 0.5) & (cosv > np.sqrt(2 * 1.5 / projected_ellipse(
-        sc, s)['equivalent_radius_px']))
+    _, cth, d2, inner = sphere_angles(sc, s)
+    m = (LAB['single_matte'] == 0) & (cth > 0.5) & inner
     codes = np.clip(np.rint(R['single_matte'] * gain), 0, 65535)
     pred = MATTE_ALBEDO / np.pi * I * cth / d2
     summary['lamp_matte_check_code65535_over_prediction'] = float((codes[m] / 65535).mean() / pred[m].mean())

@@ -20,7 +20,7 @@
 
 use glam::{DVec2, Vec2, Vec3};
 
-use crate::sphere::{Circle, Detection, DetectionError};
+use crate::sphere::{Circle, Detection, DetectionError, box_blur_3x3};
 
 /// Smallest circle radius looked for, pixels.
 const MIN_RADIUS_PX: usize = 8;
@@ -52,7 +52,7 @@ pub fn detect_spheres(
     let (_, &mut p99, _) = positive.select_nth_unstable_by(rank, f32::total_cmp);
     // Below half a percent of the bright level, noise would dominate the log.
     let floor = 0.005 * p99;
-    let blurred = blur(&blur(&luma, width, height), width, height);
+    let blurred = box_blur_3x3(&box_blur_3x3(&luma, width, height), width, height);
     let log: Vec<f32> = blurred.iter().map(|v| (v + floor).ln()).collect();
     let edges = edges(&log, width, height);
     let max_radius = width.min(height) / 2;
@@ -105,23 +105,6 @@ pub fn detect_spheres(
 struct Edge {
     at: DVec2,
     direction: DVec2,
-}
-
-fn blur(values: &[f32], width: usize, height: usize) -> Vec<f32> {
-    let mut out = vec![0.0; values.len()];
-    for y in 0..height {
-        for x in 0..width {
-            let (mut sum, mut n) = (0.0, 0.0);
-            for yy in y.saturating_sub(1)..(y + 2).min(height) {
-                for xx in x.saturating_sub(1)..(x + 2).min(width) {
-                    sum += values[yy * width + xx];
-                    n += 1.0;
-                }
-            }
-            out[y * width + x] = sum / n;
-        }
-    }
-    out
 }
 
 /// Thinned edges of the log luminance: Sobel magnitude above a threshold and a local maximum
@@ -187,7 +170,7 @@ fn vote(edges: &[Edge], width: usize, height: usize, max_radius: usize) -> Vec<D
             }
         }
     }
-    let votes = blur(&votes, width, height);
+    let votes = box_blur_3x3(&votes, width, height);
     let mut peaks: Vec<(f32, usize)> = Vec::new();
     for y in 1..height - 1 {
         for x in 1..width - 1 {

@@ -103,27 +103,18 @@ pub enum FitError {
         /// What was dropped.
         dropped: DroppedPixels,
     },
-    /// A mask image is not the size of its photograph.
-    #[error("{image}: mask {} is {}×{} px but the photograph is {}×{} px", mask.display(), mask_size[0], mask_size[1], image_size[0], image_size[1])]
-    MaskSize {
+    /// A mask or a flagged frame is not the size of its photograph. The message reads
+    /// `IMAGE: KEY FILE is W×H px but the photograph is W×H px`.
+    #[error("{image}: {key} {} is {}×{} px but the photograph is {}×{} px", file.display(), file_size[0], file_size[1], image_size[0], image_size[1])]
+    CompanionSize {
         /// The photograph.
         image: String,
-        /// The mask file.
-        mask: std::path::PathBuf,
-        /// The mask's size.
-        mask_size: [u32; 2],
-        /// The photograph's size.
-        image_size: [u32; 2],
-    },
-    /// A flagged frame is not the size of its photograph.
-    #[error("{image}: ambient_image {} is {}×{} px but the photograph is {}×{} px", ambient.display(), ambient_size[0], ambient_size[1], image_size[0], image_size[1])]
-    AmbientSize {
-        /// The photograph.
-        image: String,
-        /// The flagged frame.
-        ambient: std::path::PathBuf,
+        /// The manifest key that names the file: `mask` or `ambient_image`.
+        key: &'static str,
+        /// The file.
+        file: std::path::PathBuf,
         /// Its size.
-        ambient_size: [u32; 2],
+        file_size: [u32; 2],
         /// The photograph's size.
         image_size: [u32; 2],
     },

@@ -734,40 +734,23 @@ fn convert_levels(decoded: &DynamicImage, levels: SensorLevels, exposure: f32) -
     let decode = |code: u16| (f32::from(code) - black) * scale;
     // Checked by the caller: an 8-bit file's white level fits in a byte.
     let white_u8 = u8::try_from(levels.white).unwrap_or(u8::MAX);
+    let from_u8 = |raw: &[u8], channels: usize| {
+        let (p, s) = convert_integer(raw, channels, white_u8, |c: u8| decode(c.into()));
+        (p, s, SampleFormat::U8)
+    };
+    let from_u16 = |raw: &[u16], channels: usize| {
+        let (p, s) = convert_integer(raw, channels, levels.white, decode);
+        (p, s, SampleFormat::U16)
+    };
     let (pixels, saturated, sample_format) = match decoded {
-        DynamicImage::ImageLuma8(b) => {
-            let (p, s) = convert_integer(b.as_raw(), 1, white_u8, |c: u8| decode(c.into()));
-            (p, s, SampleFormat::U8)
-        }
-        DynamicImage::ImageLumaA8(b) => {
-            let (p, s) = convert_integer(b.as_raw(), 2, white_u8, |c: u8| decode(c.into()));
-            (p, s, SampleFormat::U8)
-        }
-        DynamicImage::ImageRgb8(b) => {
-            let (p, s) = convert_integer(b.as_raw(), 3, white_u8, |c: u8| decode(c.into()));
-            (p, s, SampleFormat::U8)
-        }
-        DynamicImage::ImageRgba8(b) => {
-            let (p, s) = convert_integer(b.as_raw(), 4, white_u8, |c: u8| decode(c.into()));
-            (p, s, SampleFormat::U8)
-        }
-        DynamicImage::ImageLuma16(b) => {
-            let (p, s) = convert_integer(b.as_raw(), 1, levels.white, decode);
-            (p, s, SampleFormat::U16)
-        }
-        DynamicImage::ImageLumaA16(b) => {
-            let (p, s) = convert_integer(b.as_raw(), 2, levels.white, decode);
-            (p, s, SampleFormat::U16)
-        }
-        DynamicImage::ImageRgb16(b) => {
-            let (p, s) = convert_integer(b.as_raw(), 3, levels.white, decode);
-            (p, s, SampleFormat::U16)
-        }
-        _ => {
-            let buffer = decoded.to_rgba16();
-            let (p, s) = convert_integer(buffer.as_raw(), 4, levels.white, decode);
-            (p, s, SampleFormat::U16)
-        }
+        DynamicImage::ImageLuma8(b) => from_u8(b.as_raw(), 1),
+        DynamicImage::ImageLumaA8(b) => from_u8(b.as_raw(), 2),
+        DynamicImage::ImageRgb8(b) => from_u8(b.as_raw(), 3),
+        DynamicImage::ImageRgba8(b) => from_u8(b.as_raw(), 4),
+        DynamicImage::ImageLuma16(b) => from_u16(b.as_raw(), 1),
+        DynamicImage::ImageLumaA16(b) => from_u16(b.as_raw(), 2),
+        DynamicImage::ImageRgb16(b) => from_u16(b.as_raw(), 3),
+        other => from_u16(other.to_rgba16().as_raw(), 4),
     };
     LinearImage {
         width: decoded.width(),

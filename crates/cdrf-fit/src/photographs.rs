@@ -293,21 +293,36 @@ fn circles(
         .collect()
 }
 
+/// A file the entry's manifest key names beside its photograph (a mask, a flagged frame),
+/// decoded with `decoding` and checked to be the photograph's size.
+fn load_companion(
+    entry: &SphereEntry,
+    key: &'static str,
+    path: &std::path::Path,
+    decoding: &Decoding,
+    image_size: [u32; 2],
+) -> Result<LinearImage, FitError> {
+    let file = load_linear_image_with(path, decoding)?;
+    if [file.width, file.height] != image_size {
+        return Err(FitError::CompanionSize {
+            image: entry.image_name.clone(),
+            key,
+            file: path.to_path_buf(),
+            file_size: [file.width, file.height],
+            image_size,
+        });
+    }
+    Ok(file)
+}
+
 /// `image` minus the entry's flagged frame (decoded alike); a pixel clipped in either is clipped.
 fn subtract_flagged(
     image: &LinearImage,
     entry: &SphereEntry,
     path: &std::path::Path,
 ) -> Result<LinearImage, FitError> {
-    let ambient = load_linear_image_with(path, &entry.decoding())?;
-    if [ambient.width, ambient.height] != [image.width, image.height] {
-        return Err(FitError::AmbientSize {
-            image: entry.image_name.clone(),
-            ambient: path.to_path_buf(),
-            ambient_size: [ambient.width, ambient.height],
-            image_size: [image.width, image.height],
-        });
-    }
+    let size = [image.width, image.height];
+    let ambient = load_companion(entry, "ambient_image", path, &entry.decoding(), size)?;
     let mut out = image.clone();
     for (pixel, light) in out.pixels.iter_mut().zip(&ambient.pixels) {
         *pixel -= *light;
@@ -324,21 +339,11 @@ fn load_mask(
     path: &std::path::Path,
     size: [u32; 2],
 ) -> Result<Vec<bool>, FitError> {
-    let mask = load_linear_image_with(
-        path,
-        &Decoding {
-            color_space: Some(ColorSpace::Linear),
-            ..Decoding::default()
-        },
-    )?;
-    if [mask.width, mask.height] != size {
-        return Err(FitError::MaskSize {
-            image: entry.image_name.clone(),
-            mask: path.to_path_buf(),
-            mask_size: [mask.width, mask.height],
-            image_size: size,
-        });
-    }
+    let linear = Decoding {
+        color_space: Some(ColorSpace::Linear),
+        ..Decoding::default()
+    };
+    let mask = load_companion(entry, "mask", path, &linear, size)?;
     Ok(mask.pixels.iter().map(|p| p.max_element() > 0.5).collect())
 }
 

@@ -250,7 +250,8 @@ pub fn detect_sphere(
     })
 }
 
-fn box_blur_3x3(values: &[f32], width: usize, height: usize) -> Vec<f32> {
+/// Mean over each pixel's 3 × 3 neighbourhood (clipped at the image border).
+pub(crate) fn box_blur_3x3(values: &[f32], width: usize, height: usize) -> Vec<f32> {
     let mut out = vec![0.0; values.len()];
     for y in 0..height {
         for x in 0..width {
