@@ -5,7 +5,8 @@
 # driver (lavapipe) for the GPU tests, a virtual X server (xvfb, xauth) and the X libraries winit
 # loads for the viewer's windowed test, a C++ compiler for crates that build C++ — using sudo
 # only when not root. Then: format check, clippy with warnings as errors, every test (unit,
-# integration, CLI, doc tests), a publish dry run of the five crates, and the docs build.
+# integration, CLI, doc tests), a publish dry run of the five crates, the docs build, and the
+# Bevy plugin's own workspace with the nightly toolchain.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -98,5 +99,20 @@ done
 
 section "cargo doc"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked --quiet
+
+# The Bevy plugin is a workspace of its own on the nightly toolchain: Bevy 0.20 declares
+# rust-version 1.97.1, the nightly every machine of ours has is 1.97.0 (hence
+# --ignore-rust-version). About 15 minutes on two cores from clean, 4 GB of target/.
+if cargo +nightly --version >/dev/null 2>&1; then
+  section "cdrf-bevy (integrations/cdrf-bevy, nightly): fmt, clippy, test"
+  (
+    cd integrations/cdrf-bevy
+    cargo +nightly fmt --check
+    cargo +nightly clippy --all-targets --locked --ignore-rust-version -- -D warnings
+    cargo +nightly test --locked --ignore-rust-version -- --show-output
+  )
+else
+  section "cdrf-bevy SKIPPED: no nightly toolchain (cargo +nightly) on this machine; 'rustup toolchain install nightly' runs it"
+fi
 
 section "all checks passed"

@@ -1,0 +1,122 @@
+//! The assets a Bevy app loads: measured tables (`.exr` from cdrf-fit or cdrf-preset) and the
+//! materials that use them.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use bevy::asset::io::Reader;
+use bevy::asset::{AssetLoader, LoadContext};
+use bevy::prelude::*;
+use cdrf_core::CdrfLut;
+use cdrf_core::lut_file::LutFileError;
+use cdrf_core::presets::PresetError;
+
+/// A measured table f(κ, θ) with its view correction and material terms: cdrf-fit's
+/// `measured.exr` or a `cdrf-preset` output, loaded by the asset server (hot reload included).
+#[derive(Asset, TypePath, Clone, Debug)]
+pub struct CdrfTable(pub Arc<CdrfLut>);
+
+/// Reads tables (`.exr`) for `AssetServer::load::<CdrfTable>`.
+#[derive(Default, TypePath)]
+pub struct CdrfTableLoader;
+
+/// Why a table file could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum CdrfTableLoadError {
+    /// The asset source could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The asset path.
+        path: String,
+        /// The reader's error.
+        source: std::io::Error,
+    },
+    /// The file is not a valid table (the message names the file and the problem).
+    #[error(transparent)]
+    Table(#[from] LutFileError),
+}
+
+impl AssetLoader for CdrfTableLoader {
+    type Asset = CdrfTable;
+    type Settings = ();
+    type Error = CdrfTableLoadError;
+
+    async fn load(
+        &self,
+        reader: &mut dyn Reader,
+        _settings: &(),
+        load_context: &mut LoadContext<'_>,
+    ) -> Result<CdrfTable, CdrfTableLoadError> {
+        let path = load_context.path().to_string();
+        let mut bytes = Vec::new();
+        reader
+            .read_to_end(&mut bytes)
+            .await
+            .map_err(|source| CdrfTableLoadError::Io {
+                path: path.clone(),
+                source,
+            })?;
+        let lut = cdrf_core::lut_file::read_lut_bytes(&bytes, Path::new(&path))?;
+        Ok(CdrfTable(Arc::new(lut)))
+    }
+
+    fn extensions(&self) -> &[&str] {
+        &["exr"]
+    }
+}
+
+/// How a CDRF mesh is shaded: a measured table, loaded as an asset or built in.
+#[derive(Asset, TypePath, Clone, Debug)]
+pub struct CdrfMaterial {
+    /// The table.
+    pub model: CdrfModel,
+}
+
+/// Where a material's table comes from.
+#[derive(Clone, Debug)]
+pub enum CdrfModel {
+    /// A table file loaded by the asset server.
+    Table(Handle<CdrfTable>),
+    /// A table in memory: a built-in one ([`CdrfMaterial::preset`]) or one the app made.
+    Lut(Arc<CdrfLut>),
+}
+
+impl CdrfMaterial {
+    /// A material whose table is a loaded `.exr` (`assets.load("wax/measured.exr")`).
+    pub fn from_lut(table: Handle<CdrfTable>) -> Self {
+        Self {
+            model: CdrfModel::Table(table),
+        }
+    }
+
+    /// A built-in material by name ([`cdrf_core::presets::names`], case-insensitive).
+    ///
+    /// # Errors
+    /// [`PresetError`] for an unknown name.
+    pub fn preset(name: &str) -> Result<Self, PresetError> {
+        Ok(Self {
+            model: CdrfModel::Lut(Arc::new(cdrf_core::presets::lut(name)?.clone())),
+        })
+    }
+
+    /// A material of a table in memory (e.g. read with [`cdrf_core::read_lut`]).
+    pub fn from_table(lut: CdrfLut) -> Self {
+        Self {
+            model: CdrfModel::Lut(Arc::new(lut)),
+        }
+    }
+
+    /// The table, once loaded.
+    pub(crate) fn lut(&self, tables: &Assets<CdrfTable>) -> Option<Arc<CdrfLut>> {
+        match &self.model {
+            CdrfModel::Table(handle) => tables.get(handle).map(|table| table.0.clone()),
+            CdrfModel::Lut(lut) => Some(lut.clone()),
+        }
+    }
+}
+
+/// Shades the entity's `Mesh3d` with cdrf-render's pass instead of Bevy's PBR (the entity needs
+/// no `MeshMaterial3d`).
+#[derive(Component, Clone, Debug, Default, Deref, DerefMut)]
+#[require(Transform, Visibility)]
+pub struct CdrfMaterial3d(pub Handle<CdrfMaterial>);

@@ -1,0 +1,234 @@
+//! The render world's side: one cdrf-render `Renderer` per 3D camera on Bevy's device,
+//! prepared each frame with the extracted frame and recorded into the camera's HDR target and
+//! depth buffer after Bevy's opaque pass.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use bevy::core_pipeline::Core3d;
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::prelude::*;
+use bevy::render::Extract;
+use bevy::render::camera::ExtractedCamera;
+use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
+use bevy::render::view::{ExtractedView, Msaa, ViewDepthStencilTexture, ViewTarget};
+use cdrf_core::CdrfLut;
+use cdrf_render::{
+    Draw, FrameDesc, MaterialDesc, MaterialId, MeshDesc, MeshId, Renderer, TargetDesc, ToCamera,
+    View, wgpu,
+};
+
+use crate::frame::{CdrfFrame, PreparedMesh, to_glam_mat4, to_glam_vec3};
+
+/// Bevy's main-pass depth format (`CORE_3D_DEPTH_FORMAT`), reversed Z.
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// The renderers, by the camera's render-world entity.
+#[derive(Resource, Default)]
+pub(crate) struct CdrfViews(HashMap<Entity, ViewRenderer>);
+
+struct ViewRenderer {
+    renderer: Renderer,
+    /// Uploaded meshes and materials, by the address of the frame's shared data (kept alive
+    /// here, so an address is not reused while its entry exists).
+    meshes: HashMap<usize, (Arc<PreparedMesh>, MeshId)>,
+    materials: HashMap<usize, (Arc<CdrfLut>, MaterialId)>,
+    /// The commands `prepare` returned (light maps, vertex terms), submitted before the pass.
+    commands: Mutex<Vec<wgpu::CommandBuffer>>,
+    /// Whether this frame's `prepare` succeeded (else the pass draws nothing).
+    prepared: bool,
+}
+
+pub(crate) fn extract_frame(mut commands: Commands, frame: Extract<Res<CdrfFrame>>) {
+    commands.insert_resource((*frame).clone());
+}
+
+/// Prepares each 3D camera's renderer: uploads new meshes and materials, drops unused ones,
+/// and records the frame's non-local passes.
+pub(crate) fn prepare_views(
+    mut views: ResMut<CdrfViews>,
+    frame: Res<CdrfFrame>,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+    cameras: Query<(
+        Entity,
+        &ExtractedView,
+        &ExtractedCamera,
+        &ViewTarget,
+        Option<&Msaa>,
+    )>,
+) {
+    let device = device.wgpu_device();
+    let queue: &wgpu::Queue = &queue;
+    let core_3d = Core3d.intern();
+    let mut seen = Vec::new();
+    for (entity, view, camera, target, msaa) in &cameras {
+        if camera.schedule != core_3d {
+            continue;
+        }
+        seen.push(entity);
+        let target = TargetDesc::new(target.main_texture_format())
+            .with_sample_count(msaa.map_or(1, Msaa::samples))
+            .with_depth(DEPTH_FORMAT);
+        let state = views.0.entry(entity).or_insert_with(|| {
+            let options = cdrf_render::Options {
+                depth_compare: wgpu::CompareFunction::Greater,
+                ..frame.settings.options
+            };
+            ViewRenderer {
+                renderer: Renderer::new(device, &target, options),
+                meshes: HashMap::new(),
+                materials: HashMap::new(),
+                commands: Mutex::new(Vec::new()),
+                prepared: false,
+            }
+        });
+        if state.renderer.target() != &target {
+            state.renderer.set_target(&target);
+        }
+        state.prepared = false;
+        match prepare_view(state, device, queue, &frame, view, camera) {
+            Ok(commands) => {
+                *state.commands.lock().expect("not poisoned") = commands;
+                state.prepared = true;
+            }
+            Err(error) => error_once!("cdrf: cannot render the CDRF meshes: {error}"),
+        }
+    }
+    views.0.retain(|entity, _| seen.contains(entity));
+}
+
+/// Why a view could not be prepared.
+#[derive(Debug, thiserror::Error)]
+enum ViewError {
+    #[error("mesh upload: {0}")]
+    Mesh(#[from] cdrf_render::MeshUploadError),
+    #[error("material: {0}")]
+    Material(#[from] cdrf_render::MaterialError),
+    #[error("frame: {0}")]
+    Prepare(#[from] cdrf_render::PrepareError),
+}
+
+fn prepare_view(
+    state: &mut ViewRenderer,
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    frame: &CdrfFrame,
+    view: &ExtractedView,
+    camera: &ExtractedCamera,
+) -> Result<Vec<wgpu::CommandBuffer>, ViewError> {
+    let mut draws = Vec::with_capacity(frame.draws.len());
+    let (mut used_meshes, mut used_materials) = (Vec::new(), Vec::new());
+    for draw in &frame.draws {
+        let mesh_key = Arc::as_ptr(&draw.mesh) as usize;
+        let mesh = match state.meshes.get(&mesh_key) {
+            Some((_, id)) => *id,
+            None => {
+                let prepared = &draw.mesh;
+                let id = state.renderer.create_mesh(
+                    device,
+                    &MeshDesc::from_mesh(&prepared.mesh, &prepared.curvature_per_mm)
+                        .with_curvature_anisotropy(&prepared.anisotropy_per_mm),
+                )?;
+                state.meshes.insert(mesh_key, (prepared.clone(), id));
+                id
+            }
+        };
+        let material_key = Arc::as_ptr(&draw.material) as usize;
+        let material = match state.materials.get(&material_key) {
+            Some((_, id)) => *id,
+            None => {
+                let id = state.renderer.create_material(
+                    device,
+                    queue,
+                    &MaterialDesc::Measured {
+                        lut: &draw.material,
+                    },
+                )?;
+                state
+                    .materials
+                    .insert(material_key, (draw.material.clone(), id));
+                id
+            }
+        };
+        used_meshes.push(mesh_key);
+        used_materials.push(material_key);
+        draws.push(Draw::new(mesh, material, draw.world_from_model));
+    }
+    // What no draw uses any more (a hot-reloaded asset's old version, a despawned mesh) goes.
+    let renderer = &mut state.renderer;
+    state.meshes.retain(|key, (_, id)| {
+        used_meshes.contains(key) || {
+            renderer.remove_mesh(*id);
+            false
+        }
+    });
+    state.materials.retain(|key, (_, id)| {
+        used_materials.contains(key) || {
+            renderer.remove_material(*id);
+            false
+        }
+    });
+
+    let clip_from_view = view.clip_from_view;
+    let world_from_view = view.world_from_view.to_matrix();
+    let clip_from_world = view
+        .clip_from_world
+        .unwrap_or(clip_from_view * world_from_view.inverse());
+    let to_camera = if clip_from_view.w_axis.w == 1.0 {
+        ToCamera::Direction(to_glam_vec3(view.world_from_view.back().as_vec3()))
+    } else {
+        ToCamera::Point(to_glam_vec3(view.world_from_view.translation()))
+    };
+    let desc = FrameDesc {
+        view: View {
+            clip_from_world: to_glam_mat4(clip_from_world),
+            to_camera,
+        },
+        lights: &frame.lights,
+        exposure: camera.exposure,
+        draws: &draws,
+        non_local: frame.settings.non_local,
+        mm_per_world_unit: frame.settings.mm_per_unit,
+        environment: frame.environment.as_ref(),
+    };
+    Ok(state.renderer.prepare(device, queue, &desc)?)
+}
+
+/// Draws the CDRF meshes into the camera's main texture, testing and writing Bevy's depth.
+pub(crate) fn cdrf_main_pass_3d(
+    view: ViewQuery<(&ExtractedCamera, &ViewTarget, &ViewDepthStencilTexture)>,
+    views: Res<CdrfViews>,
+    mut ctx: RenderContext,
+) {
+    let Some(state) = views.0.get(&view.entity()) else {
+        return;
+    };
+    if !state.prepared {
+        return;
+    }
+    let (camera, target, depth) = view.into_inner();
+    for commands in state.commands.lock().expect("not poisoned").drain(..) {
+        ctx.add_command_buffer(commands);
+    }
+    let mut pass = ctx
+        .command_encoder()
+        .begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("cdrf_main_pass_3d"),
+            color_attachments: &[Some(target.get_color_attachment())],
+            depth_stencil_attachment: Some(depth.get_attachment(wgpu::StoreOp::Store)),
+            ..Default::default()
+        });
+    if let Some(viewport) = &camera.viewport {
+        let (position, size) = (viewport.physical_position, viewport.physical_size);
+        pass.set_viewport(
+            position.x as f32,
+            position.y as f32,
+            size.x as f32,
+            size.y as f32,
+            viewport.depth.start,
+            viewport.depth.end,
+        );
+    }
+    state.renderer.render(&mut pass);
+}
