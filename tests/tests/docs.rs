@@ -61,13 +61,15 @@ struct Package {
     binaries: Vec<String>,
 }
 
-/// The workspace's packages by name, read from `crates/*/Cargo.toml` and `tests/Cargo.toml`.
+/// The packages by name, read from `crates/*/Cargo.toml`, `tests/Cargo.toml` and the Bevy
+/// plugin's own workspace (`integrations/cdrf-bevy`).
 fn packages() -> BTreeMap<String, Package> {
     let mut dirs: Vec<PathBuf> = fs::read_dir(root().join("crates"))
         .unwrap()
         .map(|entry| entry.unwrap().path())
         .collect();
     dirs.push(root().join("tests"));
+    dirs.push(root().join("integrations/cdrf-bevy"));
     let mut packages = BTreeMap::new();
     for dir in dirs {
         let Ok(manifest) = fs::read_to_string(dir.join("Cargo.toml")) else {
@@ -349,6 +351,8 @@ fn is_executable(meta: &fs::Metadata) -> bool {
 /// Cargo's own flags the documents may use.
 const CARGO_FLAGS: &[&str] = &[
     "--release",
+    // The Bevy plugin's workspace: Bevy declares a newer rustc than the nightly has.
+    "--ignore-rust-version",
     "-p",
     "--package",
     "--bin",

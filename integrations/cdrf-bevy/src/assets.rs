@@ -79,6 +79,28 @@ pub enum CdrfModel {
     Table(Handle<CdrfTable>),
     /// A table in memory: a built-in one ([`CdrfMaterial::preset`]) or one the app made.
     Lut(Arc<CdrfLut>),
+    /// Lambert's opaque diffuse surface (`π·L/E = albedo · cos θ`), for comparison.
+    Lambert {
+        /// Albedo per linear RGB channel.
+        albedo: [f32; 3],
+    },
+}
+
+/// A material ready to draw: its table loaded.
+#[derive(Debug)]
+pub(crate) enum ResolvedMaterial {
+    Measured(Arc<CdrfLut>),
+    Lambert([f32; 3]),
+}
+
+impl ResolvedMaterial {
+    /// How far light travels under the surface, mm (the curvature filter's length).
+    pub(crate) fn diffusion_length_mm(&self) -> Option<f32> {
+        match self {
+            Self::Measured(lut) => lut.diffusion_length_mm(),
+            Self::Lambert(_) => None,
+        }
+    }
 }
 
 impl CdrfMaterial {
@@ -106,12 +128,20 @@ impl CdrfMaterial {
         }
     }
 
-    /// The table, once loaded.
-    pub(crate) fn lut(&self, tables: &Assets<CdrfTable>) -> Option<Arc<CdrfLut>> {
-        match &self.model {
-            CdrfModel::Table(handle) => tables.get(handle).map(|table| table.0.clone()),
-            CdrfModel::Lut(lut) => Some(lut.clone()),
+    /// Lambert's diffuse surface of `albedo` (linear RGB).
+    pub fn lambert(albedo: [f32; 3]) -> Self {
+        Self {
+            model: CdrfModel::Lambert { albedo },
         }
+    }
+
+    /// The material ready to draw (`None` while its table loads).
+    pub(crate) fn resolve(&self, tables: &Assets<CdrfTable>) -> Option<ResolvedMaterial> {
+        Some(match &self.model {
+            CdrfModel::Table(handle) => ResolvedMaterial::Measured(tables.get(handle)?.0.clone()),
+            CdrfModel::Lut(lut) => ResolvedMaterial::Measured(lut.clone()),
+            CdrfModel::Lambert { albedo } => ResolvedMaterial::Lambert(*albedo),
+        })
     }
 }
 

@@ -8,7 +8,6 @@ use std::sync::Arc;
 use bevy::light::GlobalAmbientLight;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
-use cdrf_core::CdrfLut;
 use cdrf_core::curvature::{CurvatureOptions, curvature_per_mm, material_filter_length_mm};
 use cdrf_core::environment::{Environment, ShCoefficients};
 use cdrf_core::glam;
@@ -16,7 +15,7 @@ use cdrf_core::light::{self as cdrf_light, Light};
 use cdrf_core::mesh::MeshData;
 
 use crate::CdrfSettings;
-use crate::assets::{CdrfMaterial, CdrfMaterial3d, CdrfTable};
+use crate::assets::{CdrfMaterial, CdrfMaterial3d, CdrfTable, ResolvedMaterial};
 use crate::units;
 
 /// A mesh asset as cdrf-render takes it: its triangles and per-vertex curvature.
@@ -33,7 +32,7 @@ pub struct PreparedMesh {
 #[derive(Clone)]
 pub(crate) struct FrameDraw {
     pub mesh: Arc<PreparedMesh>,
-    pub material: Arc<CdrfLut>,
+    pub material: Arc<ResolvedMaterial>,
     pub world_from_model: glam::Mat4,
 }
 
@@ -51,7 +50,7 @@ pub(crate) struct CdrfFrame {
 #[derive(Resource, Default)]
 pub(crate) struct CdrfCaches {
     meshes: HashMap<(AssetId<Mesh>, u32), Option<Arc<PreparedMesh>>>,
-    materials: HashMap<AssetId<CdrfMaterial>, Arc<CdrfLut>>,
+    materials: HashMap<AssetId<CdrfMaterial>, Arc<ResolvedMaterial>>,
 }
 
 /// Drops cached curvature and tables whose assets changed (hot reload).
@@ -108,17 +107,24 @@ pub(crate) fn gather_frame(
         if !visibility.get() {
             continue;
         }
-        let Some(lut) = material_lut(&mut caches.materials, material.id(), &materials, &tables)
+        let Some(material) =
+            resolved_material(&mut caches.materials, material.id(), &materials, &tables)
         else {
             continue; // still loading
         };
-        let Some(mesh) = prepared_mesh(&mut caches.meshes, mesh.id(), &meshes, &lut, &settings)
-        else {
+        let diffusion_length_mm = material.diffusion_length_mm();
+        let Some(mesh) = prepared_mesh(
+            &mut caches.meshes,
+            mesh.id(),
+            &meshes,
+            diffusion_length_mm,
+            &settings,
+        ) else {
             continue;
         };
         frame.draws.push(FrameDraw {
             mesh,
-            material: lut,
+            material,
             world_from_model: to_glam_mat4(transform.to_matrix()),
         });
     }
@@ -180,18 +186,18 @@ pub(crate) fn gather_frame(
     });
 }
 
-fn material_lut(
-    cache: &mut HashMap<AssetId<CdrfMaterial>, Arc<CdrfLut>>,
+fn resolved_material(
+    cache: &mut HashMap<AssetId<CdrfMaterial>, Arc<ResolvedMaterial>>,
     id: AssetId<CdrfMaterial>,
     materials: &Assets<CdrfMaterial>,
     tables: &Assets<CdrfTable>,
-) -> Option<Arc<CdrfLut>> {
-    if let Some(lut) = cache.get(&id) {
-        return Some(lut.clone());
+) -> Option<Arc<ResolvedMaterial>> {
+    if let Some(material) = cache.get(&id) {
+        return Some(material.clone());
     }
-    let lut = materials.get(id)?.lut(tables)?;
-    cache.insert(id, lut.clone());
-    Some(lut)
+    let material = Arc::new(materials.get(id)?.resolve(tables)?);
+    cache.insert(id, material.clone());
+    Some(material)
 }
 
 /// The mesh with its curvature, filtered over the material's diffusion length as cdrf's scene
@@ -200,15 +206,15 @@ fn prepared_mesh(
     cache: &mut HashMap<(AssetId<Mesh>, u32), Option<Arc<PreparedMesh>>>,
     id: AssetId<Mesh>,
     meshes: &Assets<Mesh>,
-    lut: &CdrfLut,
+    diffusion_length_mm: Option<f32>,
     settings: &CdrfSettings,
 ) -> Option<Arc<PreparedMesh>> {
-    let key = (id, lut.diffusion_length_mm().unwrap_or(0.0).to_bits());
+    let key = (id, diffusion_length_mm.unwrap_or(0.0).to_bits());
     if let Some(prepared) = cache.get(&key) {
         return prepared.clone();
     }
     let source = meshes.get(id)?; // still loading
-    let prepared = prepare_mesh(source, lut, settings.mm_per_unit)
+    let prepared = prepare_mesh(source, diffusion_length_mm, settings.mm_per_unit)
         .inspect_err(|error| error!("cdrf: mesh {id}: {error}; it is not drawn"))
         .ok()
         .map(Arc::new);
@@ -234,10 +240,11 @@ pub enum MeshConversionError {
     Curvature(#[from] cdrf_core::curvature::CurvatureError),
 }
 
-/// A Bevy mesh as a cdrf mesh with curvature (model units × `mm_per_unit`).
+/// A Bevy mesh as a cdrf mesh with curvature (model units × `mm_per_unit`), filtered over
+/// the material's diffusion length as cdrf's scene files do.
 pub fn prepare_mesh(
     source: &Mesh,
-    lut: &CdrfLut,
+    diffusion_length_mm: Option<f32>,
     mm_per_unit: f32,
 ) -> Result<PreparedMesh, MeshConversionError> {
     if source.primitive_topology() != PrimitiveTopology::TriangleList {
@@ -279,7 +286,7 @@ pub fn prepare_mesh(
     if mesh.normals.len() != mesh.positions.len() {
         mesh.compute_normals();
     }
-    let filter_mm = material_filter_length_mm(lut.diffusion_length_mm(), &mesh, mm_per_unit, 1.0);
+    let filter_mm = material_filter_length_mm(diffusion_length_mm, &mesh, mm_per_unit, 1.0);
     let curvature = curvature_per_mm(
         &mesh,
         &CurvatureOptions::new(mm_per_unit).with_filter_length_mm(filter_mm),

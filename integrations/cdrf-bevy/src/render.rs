@@ -12,12 +12,12 @@ use bevy::render::Extract;
 use bevy::render::camera::ExtractedCamera;
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
 use bevy::render::view::{ExtractedView, Msaa, ViewDepthStencilTexture, ViewTarget};
-use cdrf_core::CdrfLut;
 use cdrf_render::{
     Draw, FrameDesc, MaterialDesc, MaterialId, MeshDesc, MeshId, Renderer, TargetDesc, ToCamera,
     View, wgpu,
 };
 
+use crate::assets::ResolvedMaterial;
 use crate::frame::{CdrfFrame, PreparedMesh, to_glam_mat4, to_glam_vec3};
 
 /// Bevy's main-pass depth format (`CORE_3D_DEPTH_FORMAT`), reversed Z.
@@ -32,7 +32,7 @@ struct ViewRenderer {
     /// Uploaded meshes and materials, by the address of the frame's shared data (kept alive
     /// here, so an address is not reused while its entry exists).
     meshes: HashMap<usize, (Arc<PreparedMesh>, MeshId)>,
-    materials: HashMap<usize, (Arc<CdrfLut>, MaterialId)>,
+    materials: HashMap<usize, (Arc<ResolvedMaterial>, MaterialId)>,
     /// The commands `prepare` returned (light maps, vertex terms), submitted before the pass.
     commands: Mutex<Vec<wgpu::CommandBuffer>>,
     /// Whether this frame's `prepare` succeeded (else the pass draws nothing).
@@ -138,13 +138,11 @@ fn prepare_view(
         let material = match state.materials.get(&material_key) {
             Some((_, id)) => *id,
             None => {
-                let id = state.renderer.create_material(
-                    device,
-                    queue,
-                    &MaterialDesc::Measured {
-                        lut: &draw.material,
-                    },
-                )?;
+                let desc = match &*draw.material {
+                    ResolvedMaterial::Measured(lut) => MaterialDesc::Measured { lut },
+                    &ResolvedMaterial::Lambert(albedo) => MaterialDesc::Lambert { albedo },
+                };
+                let id = state.renderer.create_material(device, queue, &desc)?;
                 state
                     .materials
                     .insert(material_key, (draw.material.clone(), id));
