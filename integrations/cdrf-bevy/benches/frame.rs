@@ -7,19 +7,17 @@
 
 #[path = "../examples/common/mod.rs"]
 mod common;
+#[path = "../tests/common/mod.rs"]
+mod headless;
 
 use std::time::Instant;
 
-use bevy::app::PluginsState;
 use bevy::camera::{Hdr, RenderTarget};
 use bevy::log::LogPlugin;
 use bevy::prelude::*;
-use bevy::render::RenderPlugin;
 use bevy::render::render_resource::TextureFormat;
 use bevy::render::renderer::RenderDevice;
 use bevy::render::{RenderApp, render_resource::PollType};
-use bevy::window::ExitCondition;
-use bevy::winit::WinitPlugin;
 use cdrf_bevy::{CdrfPlugin, CdrfSettings};
 use cdrf_core::light::NonLocal;
 use common::Shading;
@@ -31,18 +29,8 @@ const WARM_UP_FRAMES: u32 = 5;
 fn ms_per_frame(shading: Shading, non_local: NonLocal, frames: u32) -> f64 {
     let mut app = App::new();
     app.add_plugins((
-        DefaultPlugins
-            .set(WindowPlugin {
-                primary_window: None,
-                exit_condition: ExitCondition::DontExit,
-                ..default()
-            })
-            .set(RenderPlugin {
-                synchronous_pipeline_compilation: true,
-                ..default()
-            })
+        headless::headless_plugins()
             .set(common::asset_plugin())
-            .disable::<WinitPlugin>()
             // One app after another: the first one's logger stays.
             .disable::<LogPlugin>(),
         CdrfPlugin {
@@ -68,11 +56,7 @@ fn ms_per_frame(shading: Shading, non_local: NonLocal, frames: u32) -> f64 {
         Hdr,
         common::camera_transform(),
     ));
-    while app.plugins_state() == PluginsState::Adding {
-        bevy::tasks::tick_global_task_pools_on_main_thread();
-    }
-    app.finish();
-    app.cleanup();
+    headless::finish_plugins(&mut app);
     let wait = |app: &mut App| {
         let device = app
             .sub_app(RenderApp)

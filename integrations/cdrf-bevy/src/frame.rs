@@ -70,12 +70,11 @@ pub(crate) fn invalidate_caches(
             caches.materials.remove(id);
         }
     }
-    if tables.read().any(|event| {
-        matches!(
-            event,
-            AssetEvent::Modified { .. } | AssetEvent::LoadedWithDependencies { .. }
-        )
-    }) {
+    // A material is cached only once its table has loaded: only a reloaded table matters.
+    if tables
+        .read()
+        .any(|event| matches!(event, AssetEvent::Modified { .. }))
+    {
         caches.materials.clear();
     }
 }

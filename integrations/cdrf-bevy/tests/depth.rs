@@ -4,8 +4,6 @@
 mod common;
 
 use bevy::asset::RenderAssetUsages;
-use bevy::camera::{Hdr, RenderTarget};
-use bevy::core_pipeline::tonemapping::{DebandDither, Tonemapping};
 use bevy::prelude::*;
 use cdrf_bevy::{CdrfMaterial, CdrfMaterial3d, CdrfSettings};
 
@@ -61,20 +59,8 @@ fn render(with_cubes: bool) -> Vec<[f32; 3]> {
         Transform::default().looking_to(Vec3::NEG_Z, Vec3::Y),
     ));
     world.spawn((
-        Camera3d::default(),
-        Camera {
-            clear_color: ClearColorConfig::Custom(Color::BLACK),
-            ..default()
-        },
-        RenderTarget::Image(target.clone().into()),
+        common::measuring_camera(target.clone()),
         Transform::from_xyz(0.0, 0.0, 0.2).looking_at(Vec3::ZERO, Vec3::Y),
-        Hdr,
-        Tonemapping::None,
-        DebandDither::Disabled,
-        Msaa::Off,
-        bevy::camera::Exposure {
-            ev100: -(1.2f32).log2(),
-        },
     ));
     let image = common::capture(app, target);
     (0..SIZE * SIZE)

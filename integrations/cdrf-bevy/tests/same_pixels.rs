@@ -8,9 +8,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use bevy::asset::RenderAssetUsages;
-use bevy::camera::Hdr;
-use bevy::camera::{RenderTarget, ScalingMode};
-use bevy::core_pipeline::tonemapping::{DebandDither, Tonemapping};
+use bevy::camera::ScalingMode;
 use bevy::prelude::*;
 use cdrf_bevy::{CdrfMaterial, CdrfMaterial3d, CdrfSettings};
 use cdrf_core::block_error::{BlockPixel, Region, blocks, covered_mask, region_error};
@@ -73,12 +71,7 @@ fn render_through_bevy(scene: &Scene) -> Image {
         Transform::default().looking_to(-v(light.to_light), Vec3::Y),
     ));
     world.spawn((
-        Camera3d::default(),
-        Camera {
-            clear_color: ClearColorConfig::Custom(Color::BLACK),
-            ..default()
-        },
-        RenderTarget::Image(target.clone().into()),
+        common::measuring_camera(target.clone()),
         Projection::Orthographic(OrthographicProjection {
             scaling_mode: ScalingMode::FixedVertical {
                 viewport_height: 2.0 * half_height,
@@ -88,15 +81,6 @@ fn render_through_bevy(scene: &Scene) -> Image {
             ..OrthographicProjection::default_3d()
         }),
         Transform::from_translation(v(camera.eye)).looking_at(v(camera.target), v(camera.up)),
-        // Bevy's HDR main texture (Rgba16Float): without it the pass writes 8-bit sRGB.
-        Hdr,
-        Tonemapping::None,
-        DebandDither::Disabled,
-        Msaa::Off,
-        // Exposure 1 = 1 / (1.2 · 2^ev100).
-        bevy::camera::Exposure {
-            ev100: -(1.2f32).log2(),
-        },
     ));
 
     common::capture(app, target)

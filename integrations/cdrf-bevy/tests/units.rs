@@ -6,8 +6,6 @@
 
 mod common;
 
-use bevy::camera::{Hdr, RenderTarget};
-use bevy::core_pipeline::tonemapping::{DebandDither, Tonemapping};
 use bevy::prelude::*;
 use cdrf_bevy::{CdrfMaterial, CdrfMaterial3d, CdrfSettings};
 use std::f32::consts::PI;
@@ -55,20 +53,8 @@ fn centre_radiance(cdrf: bool) -> [f32; 3] {
         Transform::from_xyz(0.0, 0.0, LIGHT_M),
     ));
     world.spawn((
-        Camera3d::default(),
-        Camera {
-            clear_color: ClearColorConfig::Custom(Color::BLACK),
-            ..default()
-        },
-        RenderTarget::Image(target.clone().into()),
+        common::measuring_camera(target.clone()),
         Transform::from_xyz(0.0, 0.0, 0.3).looking_at(Vec3::ZERO, Vec3::Y),
-        Hdr,
-        Tonemapping::None,
-        DebandDither::Disabled,
-        Msaa::Off,
-        bevy::camera::Exposure {
-            ev100: -(1.2f32).log2(),
-        },
     ));
     let image = common::capture(app, target);
     let mut sum = [0.0; 3];

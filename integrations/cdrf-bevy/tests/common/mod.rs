@@ -1,9 +1,12 @@
 //! A headless Bevy app on the software Vulkan device (lavapipe), rendering into a float image
-//! that a screenshot reads back.
+//! that a screenshot reads back. The frame benchmark shares the plugins and the start-up.
+#![allow(dead_code)] // each user takes what it needs
 
 use std::sync::{Arc, Mutex};
 
-use bevy::app::PluginsState;
+use bevy::app::{PluginGroupBuilder, PluginsState};
+use bevy::camera::{Exposure, Hdr, RenderTarget};
+use bevy::core_pipeline::tonemapping::{DebandDither, Tonemapping};
 use bevy::light::GlobalAmbientLight;
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
@@ -13,25 +16,57 @@ use bevy::window::ExitCondition;
 use bevy::winit::WinitPlugin;
 use cdrf_bevy::{CdrfPlugin, CdrfSettings};
 
+/// Bevy's default plugins without a window, compiling pipelines as they are asked for.
+pub fn headless_plugins() -> PluginGroupBuilder {
+    DefaultPlugins
+        .set(WindowPlugin {
+            primary_window: None,
+            exit_condition: ExitCondition::DontExit,
+            ..default()
+        })
+        .set(RenderPlugin {
+            synchronous_pipeline_compilation: true,
+            ..default()
+        })
+        .disable::<WinitPlugin>()
+}
+
 /// An app without a window or ambient light, with the plugin.
 pub fn headless_app(settings: CdrfSettings) -> App {
     let mut app = App::new();
-    app.add_plugins((
-        DefaultPlugins
-            .set(WindowPlugin {
-                primary_window: None,
-                exit_condition: ExitCondition::DontExit,
-                ..default()
-            })
-            .set(RenderPlugin {
-                synchronous_pipeline_compilation: true,
-                ..default()
-            })
-            .disable::<WinitPlugin>(),
-        CdrfPlugin { settings },
-    ))
-    .insert_resource(GlobalAmbientLight::NONE);
+    app.add_plugins((headless_plugins(), CdrfPlugin { settings }))
+        .insert_resource(GlobalAmbientLight::NONE);
     app
+}
+
+/// Finishes the plugins' set-up (what `App::run` does before its first update).
+pub fn finish_plugins(app: &mut App) {
+    while app.plugins_state() == PluginsState::Adding {
+        bevy::tasks::tick_global_task_pools_on_main_thread();
+    }
+    app.finish();
+    app.cleanup();
+}
+
+/// A camera that measures: into `target`, black background, Bevy's HDR main texture
+/// (`Rgba16Float`; without it the pass writes 8-bit sRGB), no tonemapping or dithering, no
+/// MSAA, exposure 1 (= 1 / (1.2 · 2^ev100)). Add its projection and place.
+pub fn measuring_camera(target: Handle<Image>) -> impl Bundle {
+    (
+        Camera3d::default(),
+        Camera {
+            clear_color: ClearColorConfig::Custom(Color::BLACK),
+            ..default()
+        },
+        RenderTarget::Image(target.into()),
+        Hdr,
+        Tonemapping::None,
+        DebandDither::Disabled,
+        Msaa::Off,
+        Exposure {
+            ev100: -(1.2f32).log2(),
+        },
+    )
 }
 
 /// A float render target (`Rgba32Float`) of the given size.
@@ -48,11 +83,7 @@ pub fn float_target(app: &mut App, width: u32, height: u32) -> Handle<Image> {
 
 /// Runs the app a few frames, then captures `target`.
 pub fn capture(mut app: App, target: Handle<Image>) -> Image {
-    while app.plugins_state() == PluginsState::Adding {
-        bevy::tasks::tick_global_task_pools_on_main_thread();
-    }
-    app.finish();
-    app.cleanup();
+    finish_plugins(&mut app);
     for _ in 0..3 {
         app.update();
     }
