@@ -2,12 +2,11 @@
 // receiving point (docs/shading.md, "Inter-reflection"). Reads `emitters` (group 2 of the
 // inter-reflection pass).
 
-// One patch of a mesh (cdrf-core's patches::SurfacePatch), model units.
+// One patch of a mesh (cdrf-core's patches::SurfacePatch): its area (model units) and mean
+// curvature as cut; where it lies is read from its vertices each frame, so a deforming mesh's
+// patches follow it.
 struct Patch {
-    centroid: vec3<f32>,
     area: f32,
-    normal: vec3<f32>,
-    sagitta: f32,
     curvature_per_mm: f32,
     first_member: u32,
     member_count: u32,

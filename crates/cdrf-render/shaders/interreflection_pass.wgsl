@@ -16,7 +16,8 @@
 @group(2) @binding(12) var<storage, read_write> emitters_out: array<Emitter>;
 
 // Each patch of the draw's mesh as an emitter of the frame (at draw.emitter_first + patch):
-// placed by the draw's transform, its exitance its vertices' area-weighted mean.
+// placed where its vertices are this frame (area-weighted centroid and normal, the sagitta its
+// farthest vertex rises above them), its exitance its vertices' area-weighted mean.
 @compute @workgroup_size(COMPUTE_WORKGROUP_SIZE)
 fn cs_patch_emitters(
     @builtin(global_invocation_id) id: vec3<u32>,
@@ -28,18 +29,28 @@ fn cs_patch_emitters(
     }
     let surface_patch = patches[i];
     var direct = vec3<f32>(0.0);
+    var centroid = vec3<f32>(0.0);
+    var summed_normal = vec3<f32>(0.0);
     for (var m = 0u; m < surface_patch.member_count; m++) {
         let member = patch_members[surface_patch.first_member + m];
+        let v = mesh_vertex(member.vertex);
         direct += member.weight * terms_out[member.vertex].exitance.xyz;
+        centroid += member.weight * v.world_position;
+        summed_normal += member.weight * v.normal;
+    }
+    let normal = normalize(summed_normal);
+    var sagitta = 0.0;
+    for (var m = 0u; m < surface_patch.member_count; m++) {
+        let member = patch_members[surface_patch.first_member + m];
+        sagitta = max(sagitta, dot(normal, mesh_vertex(member.vertex).world_position - centroid));
     }
     // Model units → mm: the transform's scale (1 / curvature_scale), then the frame's unit.
     let mm_per_model_unit = frame.mm_per_world_unit / draw.curvature_scale;
-    let world = draw.world_from_model * vec4<f32>(surface_patch.centroid, 1.0);
     var e: Emitter;
-    e.position_mm = world.xyz / world.w * frame.mm_per_world_unit;
-    e.normal = normalize(world_normal_of(surface_patch.normal));
+    e.position_mm = centroid * frame.mm_per_world_unit;
+    e.normal = normal;
     e.area_mm2 = surface_patch.area * mm_per_model_unit * mm_per_model_unit;
-    e.sagitta_mm = surface_patch.sagitta * mm_per_model_unit;
+    e.sagitta_mm = sagitta * frame.mm_per_world_unit;
     e.curvature_per_mm = surface_patch.curvature_per_mm * draw.curvature_scale;
     e.direct = direct;
     e.exitance = direct;

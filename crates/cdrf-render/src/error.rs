@@ -34,19 +34,27 @@ pub enum MeshUploadError {
     /// A per-vertex slice does not have one value per position.
     #[error("{found} {what} for {vertices} vertices")]
     AttributeCount {
-        /// `"normals"`, `"curvature values"`, `"UVs"` or `"tangents"`.
+        /// `"normals"`, `"curvature values"`, `"curvature anisotropies"`, `"UVs"`,
+        /// `"tangents"`, or for an update `"positions"`.
         what: &'static str,
         /// Values given.
         found: usize,
         /// Positions given.
         vertices: usize,
     },
-    /// A UV, tangent or curvature anisotropy is NaN or infinite.
+    /// A value is NaN or infinite.
     #[error("a {what} is not finite")]
     NonFinite {
-        /// `"UV"`, `"tangent"` or `"curvature anisotropy"`.
+        /// `"UV"`, `"tangent"`, `"curvature anisotropy"`, and for an update also
+        /// `"position"`, `"normal"` or `"curvature value"`.
         what: &'static str,
     },
+    /// New vertices for a mesh not created with [`MeshDesc::deforming`](crate::MeshDesc::deforming).
+    #[error("the mesh was not created as deforming: its vertices cannot be updated")]
+    NotDeforming,
+    /// The mesh was removed (or made by another renderer).
+    #[error("no such mesh: it was removed or belongs to another renderer")]
+    Unknown,
     /// A curvature value is NaN or infinite.
     #[error("curvature of vertex {vertex} is {value}: must be finite")]
     NonFiniteCurvature {

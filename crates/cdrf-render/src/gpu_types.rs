@@ -295,16 +295,12 @@ const _: () = assert!(GpuVertex::ATTRIBUTES.len() + GpuVertexTerms::ATTRIBUTES.l
 
 gpu_struct! {
     /// One patch of a mesh (cdrf-core's `patches::SurfacePatch`): the inter-reflection's
-    /// compute passes read them (`Patch`).
+    /// compute passes read them (`Patch`) and place them where their vertices are.
     GpuPatch as "Patch" {
-        centroid: Vec3,
         area: f32,
-        normal: Vec3,
-        sagitta: f32,
         curvature_per_mm: f32,
         first_member: u32,
         member_count: u32,
-        _pad0: u32,
     }
 }
 

@@ -599,20 +599,7 @@ impl<'a> SceneRenderer<'a> {
             TextureReadback::record(&device.device, &mut encoder, self.targets.resolved())?;
         commands.push(encoder.finish());
         device.queue.submit(commands);
-        let (width, height) = readback.size();
-        let texels = readback.read(&device.device)?;
-        let image = RgbaImage {
-            width,
-            height,
-            pixels: texels
-                .chunks_exact(8)
-                .map(|texel| {
-                    std::array::from_fn(|i| {
-                        half::f16::from_ne_bytes([texel[2 * i], texel[2 * i + 1]]).to_f32()
-                    })
-                })
-                .collect(),
-        };
+        let image = readback.read_rgba16f(&device.device)?;
 
         let settings = self.settings;
         let mut ms_per_frame = None;

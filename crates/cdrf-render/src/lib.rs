@@ -153,7 +153,7 @@ pub use error::{MaterialError, MeshUploadError, PrepareError, SurfaceError, Targ
 pub use frame::{Draw, FrameDesc, MAX_EXPOSURE, ToCamera, View};
 pub use ids::{MaterialId, MeshId, SurfaceId};
 pub use material::MaterialDesc;
-pub use mesh::MeshDesc;
+pub use mesh::{MeshDesc, MeshVertices};
 pub use offscreen::OffscreenTarget;
 pub use renderer::Renderer;
 pub use surface::{SurfaceDesc, SurfaceRoughness};

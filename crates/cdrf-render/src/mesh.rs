@@ -35,6 +35,10 @@ pub struct MeshDesc<'a> {
     /// Unit tangents along +u with the bitangent's sign in `w` (glTF's `TANGENT`), one per
     /// position; `None`: normal maps are ignored on this mesh.
     pub tangents: Option<&'a [Vec4]>,
+    /// Whether [`Renderer::update_mesh`](crate::Renderer::update_mesh) may move its vertices
+    /// (skinning, morph targets): the renderer then keeps a copy of the vertices (64 bytes
+    /// each) to interleave the new ones with the attributes that stay.
+    pub deforming: bool,
 }
 
 impl<'a> MeshDesc<'a> {
@@ -49,6 +53,15 @@ impl<'a> MeshDesc<'a> {
             indices: mesh.triangles.as_flattened(),
             uvs: mesh.uvs.as_deref(),
             tangents: None,
+            deforming: false,
+        }
+    }
+
+    /// A mesh whose vertices move: see [`MeshDesc::deforming`](#structfield.deforming).
+    pub fn deforming(self) -> Self {
+        Self {
+            deforming: true,
+            ..self
         }
     }
 
@@ -139,6 +152,86 @@ impl<'a> MeshDesc<'a> {
     }
 }
 
+/// A deforming mesh's vertices this frame (e.g. after skinning), for
+/// [`Renderer::update_mesh`](crate::Renderer::update_mesh): same count and order as at
+/// creation, model units. The triangles, UVs and patches stay as created.
+///
+/// Curvature: `None` keeps the one the mesh was created with — the rest pose's, as FaceWorks
+/// does; skinning mostly bends a body where it is already curved (docs/deforming.md measures
+/// what that loses). `Some`: the host's own, e.g. recomputed on the posed mesh.
+#[derive(Clone, Copy, Debug)]
+pub struct MeshVertices<'a> {
+    /// Vertex positions, model units.
+    pub positions: &'a [Vec3],
+    /// Unit normals.
+    pub normals: &'a [Vec3],
+    /// Tangents with the bitangent's sign in `w`; `None`: keep the created ones.
+    pub tangents: Option<&'a [Vec4]>,
+    /// Signed mean curvature, mm⁻¹; `None`: keep the created one.
+    pub curvature_per_mm: Option<&'a [f32]>,
+    /// The curvature's anisotropy, mm⁻¹, model frame; `None`: keep the created one.
+    pub curvature_anisotropy_per_mm: Option<&'a [Vec3]>,
+}
+
+impl<'a> MeshVertices<'a> {
+    /// New positions and normals; everything else as created.
+    pub fn new(positions: &'a [Vec3], normals: &'a [Vec3]) -> Self {
+        Self {
+            positions,
+            normals,
+            tangents: None,
+            curvature_per_mm: None,
+            curvature_anisotropy_per_mm: None,
+        }
+    }
+
+    fn validate(&self, vertices: usize) -> Result<(), MeshUploadError> {
+        for (what, found) in [
+            ("positions", Some(self.positions.len())),
+            ("normals", Some(self.normals.len())),
+            ("tangents", self.tangents.map(<[_]>::len)),
+            ("curvature values", self.curvature_per_mm.map(<[_]>::len)),
+            (
+                "curvature anisotropies",
+                self.curvature_anisotropy_per_mm.map(<[_]>::len),
+            ),
+        ] {
+            let Some(found) = found else { continue };
+            if found != vertices {
+                return Err(MeshUploadError::AttributeCount {
+                    what,
+                    found,
+                    vertices,
+                });
+            }
+        }
+        let finite3 = |values: &[Vec3]| values.iter().all(|v| v.is_finite());
+        for (what, finite) in [
+            ("position", finite3(self.positions)),
+            ("normal", finite3(self.normals)),
+            (
+                "tangent",
+                self.tangents
+                    .is_none_or(|t| t.iter().all(|t| t.is_finite())),
+            ),
+            (
+                "curvature value",
+                self.curvature_per_mm
+                    .is_none_or(|k| k.iter().all(|k| k.is_finite())),
+            ),
+            (
+                "curvature anisotropy",
+                self.curvature_anisotropy_per_mm.is_none_or(finite3),
+            ),
+        ] {
+            if !finite {
+                return Err(MeshUploadError::NonFinite { what });
+            }
+        }
+        Ok(())
+    }
+}
+
 /// A mesh's buffers and bounds.
 pub(crate) struct GpuMesh {
     pub(crate) vertices: wgpu::Buffer,
@@ -149,6 +242,8 @@ pub(crate) struct GpuMesh {
     pub(crate) bounds: (Vec3, f32),
     /// Its patches for the inter-reflection (where the device runs the compute passes).
     pub(crate) patches: Option<GpuPatches>,
+    /// A deforming mesh's vertices as last uploaded.
+    pub(crate) deforming: Option<Vec<GpuVertex>>,
 }
 
 impl GpuMesh {
@@ -178,11 +273,17 @@ impl GpuMesh {
                 label: Some("cdrf mesh vertices"),
                 contents: bytemuck::cast_slice(&vertices),
                 // Storage: the vertex terms pass reads them too, where the device runs it.
-                usage: if runs_vertex_terms(&device.limits()) {
-                    wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE
-                } else {
-                    wgpu::BufferUsages::VERTEX
-                },
+                usage: wgpu::BufferUsages::VERTEX
+                    | if runs_vertex_terms(&device.limits()) {
+                        wgpu::BufferUsages::STORAGE
+                    } else {
+                        wgpu::BufferUsages::empty()
+                    }
+                    | if desc.deforming {
+                        wgpu::BufferUsages::COPY_DST
+                    } else {
+                        wgpu::BufferUsages::empty()
+                    },
             }),
             indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("cdrf mesh indices"),
@@ -195,7 +296,37 @@ impl GpuMesh {
             patches: runs_vertex_terms(&device.limits())
                 .then(|| GpuPatches::upload(device, desc, patch_count))
                 .flatten(),
+            deforming: desc.deforming.then_some(vertices),
         })
+    }
+
+    /// Writes a deforming mesh's new vertices (see [`MeshVertices`]).
+    pub(crate) fn update(
+        &mut self,
+        queue: &wgpu::Queue,
+        new: &MeshVertices<'_>,
+    ) -> Result<(), MeshUploadError> {
+        let vertices = self
+            .deforming
+            .as_mut()
+            .ok_or(MeshUploadError::NotDeforming)?;
+        new.validate(vertices.len())?;
+        for (i, vertex) in vertices.iter_mut().enumerate() {
+            vertex.position = new.positions[i];
+            vertex.normal = new.normals[i];
+            if let Some(tangents) = new.tangents {
+                vertex.tangent = tangents[i].to_array();
+            }
+            if let Some(curvature) = new.curvature_per_mm {
+                vertex.curvature_per_mm = curvature[i];
+            }
+            if let Some(anisotropy) = new.curvature_anisotropy_per_mm {
+                vertex.curvature_anisotropy_per_mm = anisotropy[i];
+            }
+        }
+        queue.write_buffer(&self.vertices, 0, bytemuck::cast_slice(vertices));
+        self.bounds = bounding_sphere(new.positions);
+        Ok(())
     }
 }
 
@@ -229,14 +360,10 @@ impl GpuPatches {
             .patches
             .iter()
             .map(|patch| GpuPatch {
-                centroid: patch.centroid,
                 area: patch.area,
-                normal: patch.normal,
-                sagitta: patch.sagitta,
                 curvature_per_mm: patch.curvature_per_mm,
                 first_member: patch.first_member,
                 member_count: patch.member_count,
-                _pad0: 0,
             })
             .collect();
         let members: Vec<GpuPatchMember> = cut

@@ -1,6 +1,7 @@
 //! Reading a texture back to the CPU: the one implementation the headless renders, the viewer's
 //! screenshots and the tests share.
 
+use cdrf_core::RgbaImage;
 use thiserror::Error;
 
 /// Why a read-back failed.
@@ -78,6 +79,7 @@ pub struct TextureReadback {
     bytes_per_row: u32,
     width: u32,
     height: u32,
+    format: wgpu::TextureFormat,
 }
 
 impl TextureReadback {
@@ -151,6 +153,7 @@ impl TextureReadback {
             bytes_per_row,
             width,
             height,
+            format,
         })
     }
 
@@ -192,5 +195,32 @@ impl TextureReadback {
         drop(data);
         self.buffer.unmap();
         Ok(texels)
+    }
+
+    /// [`TextureReadback::read`] of an `Rgba16Float` texture (the headless renders' target) as
+    /// linear RGBA, row 0 at the top.
+    ///
+    /// # Errors
+    /// [`ReadbackError::Format`] for another format; as [`TextureReadback::read`].
+    pub fn read_rgba16f(self, device: &wgpu::Device) -> Result<RgbaImage, ReadbackError> {
+        if self.format != wgpu::TextureFormat::Rgba16Float {
+            return Err(ReadbackError::Format {
+                format: self.format,
+            });
+        }
+        let (width, height) = self.size();
+        let texels = self.read(device)?;
+        Ok(RgbaImage {
+            width,
+            height,
+            pixels: texels
+                .chunks_exact(8)
+                .map(|texel| {
+                    std::array::from_fn(|i| {
+                        half::f16::from_ne_bytes([texel[2 * i], texel[2 * i + 1]]).to_f32()
+                    })
+                })
+                .collect(),
+        })
     }
 }

@@ -15,7 +15,7 @@ use crate::frame_uniforms::frame_uniforms;
 use crate::gpu_types::{GpuDraw, GpuFrame, SHADING_STAGES, uniform_layout_entry, uniform_size};
 use crate::ids::{MaterialId, MeshId, SurfaceId};
 use crate::material::{GpuMaterialEntry, MaterialDesc, MaterialFactory};
-use crate::mesh::{GpuMesh, MeshDesc};
+use crate::mesh::{GpuMesh, MeshDesc, MeshVertices};
 use crate::passes::light_maps::{LightMaps, LightViewBindings, ShadowCaster};
 use crate::passes::vertex_terms::{
     PlacedMesh, TermsInputs, TermsKey, TermsLayout, VertexTermsPass,
@@ -191,6 +191,44 @@ impl Renderer {
         let id = MeshId(self.next_id());
         self.meshes.insert(id, gpu);
         Ok(id)
+    }
+
+    /// Moves a deforming mesh's vertices (one made with [`MeshDesc::deforming`]), e.g. after
+    /// skinning: every draw of it from the next `prepare` on — its shading, shadows,
+    /// transmission, gather and inter-reflection — sees the new shape. Call it before
+    /// `prepare`, once per frame the mesh moves. See [`MeshVertices`] for what stays.
+    ///
+    /// ```
+    /// use cdrf_core::{CurvatureOptions, Mesh, mean_curvature_per_mm};
+    /// use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
+    /// use cdrf_render::{MeshDesc, MeshVertices, Options, Renderer, TargetDesc, wgpu};
+    ///
+    /// # let host = HeadlessDevice::new(AdapterPreference::Software)?;
+    /// # let (device, queue) = (&host.device, &host.queue);
+    /// let mut renderer = Renderer::new(device, &TargetDesc::new(wgpu::TextureFormat::Rgba16Float),
+    ///                                  Options::default());
+    /// let rest = Mesh::icosphere(20.0, 3); // mm
+    /// let curvature = mean_curvature_per_mm(&rest, &CurvatureOptions::new(1.0))?;
+    /// let mesh = renderer.create_mesh(device, &MeshDesc::from_mesh(&rest, &curvature).deforming())?;
+    /// // This frame's pose (here squashed along y; the host's skinning in practice).
+    /// let posed: Vec<_> = rest.positions.iter().map(|p| p * cdrf_core::glam::Vec3::new(1.0, 0.8, 1.0)).collect();
+    /// renderer.update_mesh(queue, mesh, &MeshVertices::new(&posed, &rest.normals))?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`MeshUploadError`]: an unknown or non-deforming mesh, a slice of the wrong length or a
+    /// value that is not finite. The mesh then keeps its last vertices.
+    pub fn update_mesh(
+        &mut self,
+        queue: &wgpu::Queue,
+        mesh: MeshId,
+        vertices: &MeshVertices<'_>,
+    ) -> Result<(), MeshUploadError> {
+        self.meshes
+            .get_mut(&mesh)
+            .ok_or(MeshUploadError::Unknown)?
+            .update(queue, vertices)
     }
 
     /// Frees a mesh; draws naming it are skipped from the next `prepare` on.
