@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 use bevy::light::GlobalAmbientLight;
+use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
 use cdrf_core::curvature::{CurvatureOptions, curvature_per_mm, material_filter_length_mm};
@@ -16,6 +17,7 @@ use cdrf_core::mesh::MeshData;
 
 use crate::CdrfSettings;
 use crate::assets::{CdrfMaterial, CdrfMaterial3d, CdrfTable, ResolvedMaterial};
+use crate::skinning::{self, Pose, SkinWeights};
 use crate::units;
 
 /// A mesh asset as cdrf-render takes it: its triangles and per-vertex curvature.
@@ -26,6 +28,8 @@ pub struct PreparedMesh {
     pub curvature_per_mm: Vec<f32>,
     /// The curvature tensor's anisotropy per vertex, mm⁻¹ (model space).
     pub anisotropy_per_mm: Vec<glam::Vec3>,
+    /// Its joint weights, where the Bevy mesh has them and cdrf kept every vertex in order.
+    pub(crate) skin: Option<SkinWeights>,
 }
 
 /// One CDRF entity of the frame.
@@ -34,6 +38,9 @@ pub(crate) struct FrameDraw {
     pub mesh: Arc<PreparedMesh>,
     pub material: Arc<ResolvedMaterial>,
     pub world_from_model: glam::Mat4,
+    /// A skinned entity's vertices this frame (world units; the transform is then the
+    /// identity), and the entity, whose own deforming copy of the mesh they move.
+    pub pose: Option<(Entity, Arc<Pose>)>,
 }
 
 /// Everything the render world needs for a frame (cheap to clone: shared data is in `Arc`s).
@@ -79,6 +86,16 @@ pub(crate) fn invalidate_caches(
     }
 }
 
+/// What gather_frame reads of a CDRF entity.
+type CdrfEntity = (
+    Entity,
+    &'static Mesh3d,
+    &'static CdrfMaterial3d,
+    &'static GlobalTransform,
+    &'static InheritedVisibility,
+    Option<&'static SkinnedMesh>,
+);
+
 /// Gathers the frame: draws (their curvature computed on first use), lights, the sky.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn gather_frame(
@@ -88,12 +105,9 @@ pub(crate) fn gather_frame(
     meshes: Res<Assets<Mesh>>,
     materials: Res<Assets<CdrfMaterial>>,
     tables: Res<Assets<CdrfTable>>,
-    draws: Query<(
-        &Mesh3d,
-        &CdrfMaterial3d,
-        &GlobalTransform,
-        &InheritedVisibility,
-    )>,
+    draws: Query<CdrfEntity>,
+    bindposes: Res<Assets<SkinnedMeshInverseBindposes>>,
+    transforms: Query<&GlobalTransform>,
     directional: Query<(&DirectionalLight, &GlobalTransform, &InheritedVisibility)>,
     point: Query<(&PointLight, &GlobalTransform, &InheritedVisibility)>,
     spot: Query<(&SpotLight, &GlobalTransform, &InheritedVisibility)>,
@@ -102,7 +116,7 @@ pub(crate) fn gather_frame(
     let caches = &mut *caches;
     frame.settings = settings.clone();
     frame.draws.clear();
-    for (mesh, material, transform, visibility) in &draws {
+    for (entity, mesh, material, transform, visibility, skin) in &draws {
         if !visibility.get() {
             continue;
         }
@@ -121,10 +135,22 @@ pub(crate) fn gather_frame(
         ) else {
             continue;
         };
+        let pose = skin.and_then(|skin| {
+            pose(&mesh, skin, &bindposes, &transforms)
+                .inspect_err(|error| {
+                    warn_once!("cdrf: skinned entity {entity}: {error}; drawn in its rest pose");
+                })
+                .ok()
+        });
         frame.draws.push(FrameDraw {
+            world_from_model: if pose.is_some() {
+                glam::Mat4::IDENTITY
+            } else {
+                to_glam_mat4(transform.to_matrix())
+            },
+            pose: pose.map(|pose| (entity, Arc::new(pose))),
             mesh,
             material,
-            world_from_model: to_glam_mat4(transform.to_matrix()),
         });
     }
 
@@ -183,6 +209,24 @@ pub(crate) fn gather_frame(
             .flatten()
             .map(|sky| sky.project_sh(cdrf_render::ENVIRONMENT_SH_ORDER))
     });
+}
+
+/// A skinned entity's vertices this frame.
+fn pose(
+    mesh: &PreparedMesh,
+    skin: &SkinnedMesh,
+    bindposes: &Assets<SkinnedMeshInverseBindposes>,
+    transforms: &Query<&GlobalTransform>,
+) -> Result<Pose, skinning::SkinError> {
+    let weights = mesh.skin.as_ref().ok_or(skinning::SkinError::Weights)?;
+    let matrices = skinning::joint_matrices(skin, bindposes, transforms)?;
+    skinning::skin(
+        &mesh.mesh.positions,
+        &mesh.mesh.normals,
+        &mesh.anisotropy_per_mm,
+        weights,
+        &matrices,
+    )
 }
 
 fn resolved_material(
@@ -271,6 +315,7 @@ pub fn prepare_mesh(
         Ok(Some(Indices::U32(indices))) => indices.clone(),
         _ => (0..positions.len() as u32).collect(),
     };
+    let vertex_count = positions.len();
     let triangles = indices
         .chunks_exact(3)
         .map(|t| [t[0], t[1], t[2]])
@@ -290,10 +335,14 @@ pub fn prepare_mesh(
         &mesh,
         &CurvatureOptions::new(mm_per_unit).with_filter_length_mm(filter_mm),
     )?;
+    // Skin weights follow the vertices only where the repair removed none.
+    let skin = SkinWeights::of(source)
+        .filter(|skin| skin.len() == vertex_count && mesh.positions.len() == vertex_count);
     Ok(PreparedMesh {
         mesh,
         curvature_per_mm: curvature.mean_per_mm,
         anisotropy_per_mm: curvature.anisotropy_per_mm,
+        skin,
     })
 }
 

@@ -35,6 +35,7 @@
 mod assets;
 mod frame;
 mod render;
+mod skinning;
 pub mod units;
 
 use bevy::asset::AssetApp;

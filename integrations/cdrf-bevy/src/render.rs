@@ -13,8 +13,8 @@ use bevy::render::camera::ExtractedCamera;
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
 use bevy::render::view::{ExtractedView, Msaa, ViewDepthStencilTexture, ViewTarget};
 use cdrf_render::{
-    Draw, FrameDesc, MaterialDesc, MaterialId, MeshDesc, MeshId, Renderer, TargetDesc, ToCamera,
-    View, wgpu,
+    Draw, FrameDesc, MaterialDesc, MaterialId, MeshDesc, MeshId, MeshVertices, Renderer,
+    TargetDesc, ToCamera, View, wgpu,
 };
 
 use crate::assets::ResolvedMaterial;
@@ -33,6 +33,8 @@ struct ViewRenderer {
     /// here, so an address is not reused while its entry exists).
     meshes: HashMap<usize, (Arc<PreparedMesh>, MeshId)>,
     materials: HashMap<usize, (Arc<ResolvedMaterial>, MaterialId)>,
+    /// Skinned entities' own deforming meshes, by the main-world entity.
+    skinned: HashMap<Entity, (Arc<PreparedMesh>, MeshId)>,
     /// The commands `prepare` returned (light maps, vertex terms), submitted before the pass.
     commands: Mutex<Vec<wgpu::CommandBuffer>>,
     /// Whether this frame's `prepare` succeeded (else the pass draws nothing).
@@ -79,6 +81,7 @@ pub(crate) fn prepare_views(
                 renderer: Renderer::new(device, &target, options),
                 meshes: HashMap::new(),
                 materials: HashMap::new(),
+                skinned: HashMap::new(),
                 commands: Mutex::new(Vec::new()),
                 prepared: false,
             }
@@ -119,19 +122,31 @@ fn prepare_view(
 ) -> Result<Vec<wgpu::CommandBuffer>, ViewError> {
     let mut draws = Vec::with_capacity(frame.draws.len());
     let (mut used_meshes, mut used_materials) = (Vec::new(), Vec::new());
+    let mut used_skinned = Vec::new();
     for draw in &frame.draws {
-        let mesh_key = Arc::as_ptr(&draw.mesh) as usize;
-        let mesh = match state.meshes.get(&mesh_key) {
-            Some((_, id)) => *id,
-            None => {
-                let prepared = &draw.mesh;
-                let id = state.renderer.create_mesh(
-                    device,
-                    &MeshDesc::from_mesh(&prepared.mesh, &prepared.curvature_per_mm)
-                        .with_curvature_anisotropy(&prepared.anisotropy_per_mm),
-                )?;
-                state.meshes.insert(mesh_key, (prepared.clone(), id));
-                id
+        let mesh = if let Some((entity, pose)) = &draw.pose {
+            let id = skinned_mesh(state, device, *entity, &draw.mesh)?;
+            state.renderer.update_mesh(
+                queue,
+                id,
+                &MeshVertices {
+                    curvature_anisotropy_per_mm: Some(&pose.anisotropy_per_mm),
+                    ..MeshVertices::new(&pose.positions, &pose.normals)
+                },
+            )?;
+            used_skinned.push(*entity);
+            id
+        } else {
+            let mesh_key = Arc::as_ptr(&draw.mesh) as usize;
+            used_meshes.push(mesh_key);
+            match state.meshes.get(&mesh_key) {
+                Some((_, id)) => *id,
+                None => {
+                    let prepared = &draw.mesh;
+                    let id = state.renderer.create_mesh(device, &mesh_desc(prepared))?;
+                    state.meshes.insert(mesh_key, (prepared.clone(), id));
+                    id
+                }
             }
         };
         let material_key = Arc::as_ptr(&draw.material) as usize;
@@ -149,7 +164,6 @@ fn prepare_view(
                 id
             }
         };
-        used_meshes.push(mesh_key);
         used_materials.push(material_key);
         draws.push(Draw::new(mesh, material, draw.world_from_model));
     }
@@ -157,6 +171,12 @@ fn prepare_view(
     let renderer = &mut state.renderer;
     state.meshes.retain(|key, (_, id)| {
         used_meshes.contains(key) || {
+            renderer.remove_mesh(*id);
+            false
+        }
+    });
+    state.skinned.retain(|entity, (_, id)| {
+        used_skinned.contains(entity) || {
             renderer.remove_mesh(*id);
             false
         }
@@ -191,6 +211,31 @@ fn prepare_view(
         environment: frame.environment.as_ref(),
     };
     Ok(state.renderer.prepare(device, queue, &desc)?)
+}
+
+fn mesh_desc(prepared: &PreparedMesh) -> MeshDesc<'_> {
+    MeshDesc::from_mesh(&prepared.mesh, &prepared.curvature_per_mm)
+        .with_curvature_anisotropy(&prepared.anisotropy_per_mm)
+}
+
+/// A skinned entity's deforming mesh, made anew when the entity's mesh asset changed.
+fn skinned_mesh(
+    state: &mut ViewRenderer,
+    device: &wgpu::Device,
+    entity: Entity,
+    prepared: &Arc<PreparedMesh>,
+) -> Result<MeshId, ViewError> {
+    if let Some((current, id)) = state.skinned.get(&entity) {
+        if Arc::ptr_eq(current, prepared) {
+            return Ok(*id);
+        }
+        state.renderer.remove_mesh(*id);
+    }
+    let id = state
+        .renderer
+        .create_mesh(device, &mesh_desc(prepared).deforming())?;
+    state.skinned.insert(entity, (prepared.clone(), id));
+    Ok(id)
 }
 
 /// Draws the CDRF meshes into the camera's main texture, testing and writing Bevy's depth.
