@@ -7,8 +7,13 @@ use cdrf_core::glam::Vec3;
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::scene::{Projection, Scene, SceneAssets};
 use cdrf_core::{Curvature, CurvatureOptions, Mesh, curvature_per_mm};
-use cdrf_render::Options;
-use cdrf_render::headless::{AdapterPreference, HeadlessDevice, RenderSettings, render_scene};
+use cdrf_render::headless::{
+    AdapterPreference, HEADLESS_COLOR_FORMAT, HEADLESS_DEPTH_FORMAT, HeadlessDevice,
+    RenderSettings, render_scene,
+};
+use cdrf_render::offscreen::OffscreenTarget;
+use cdrf_render::readback::TextureReadback;
+use cdrf_render::{Options, TargetDesc, wgpu};
 
 pub mod golden;
 
@@ -130,4 +135,37 @@ pub fn merged(parts: &[(Mesh, Vec3)]) -> (Mesh, Curvature) {
             .extend(part.triangles.iter().map(|t| t.map(|i| i + base)));
     }
     (mesh, curvature)
+}
+
+/// The headless target (`Rgba16Float`, 4× MSAA, depth) for tests that drive a
+/// [`cdrf_render::Renderer`] themselves.
+pub fn headless_target() -> TargetDesc {
+    TargetDesc::new(HEADLESS_COLOR_FORMAT)
+        .with_sample_count(4)
+        .with_depth(HEADLESS_DEPTH_FORMAT)
+}
+
+/// Submits `commands` (a `prepare`'s), then a pass into `target` cleared to transparent in
+/// which `record` draws, and reads the image back (linear RGBA, row 0 at the top) on
+/// [`software_device`].
+///
+/// # Panics
+/// If the read-back fails.
+pub fn draw_and_read(
+    target: &OffscreenTarget,
+    mut commands: Vec<wgpu::CommandBuffer>,
+    record: impl FnOnce(&mut wgpu::RenderPass<'_>),
+) -> RgbaImage {
+    let device = software_device();
+    let mut encoder = device
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+    record(&mut target.begin_pass(&mut encoder, wgpu::Color::TRANSPARENT));
+    let readback = TextureReadback::record(&device.device, &mut encoder, target.resolved())
+        .unwrap_or_else(|error| panic!("{error}"));
+    commands.push(encoder.finish());
+    device.queue.submit(commands);
+    readback
+        .read_rgba16f(&device.device)
+        .unwrap_or_else(|error| panic!("{error}"))
 }

@@ -10,14 +10,12 @@ use cdrf_core::glam::{self, Mat4, Quat, Vec3};
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::light::NonLocal;
 use cdrf_core::{CurvatureOptions, Mesh, curvature_per_mm, read_lut};
-use cdrf_render::headless::{HEADLESS_COLOR_FORMAT, HEADLESS_DEPTH_FORMAT};
 use cdrf_render::offscreen::OffscreenTarget;
-use cdrf_render::readback::TextureReadback;
 use cdrf_render::{
     DirectionalLight, Draw, FrameDesc, MaterialDesc, MaterialId, MeshDesc, MeshId, MeshUploadError,
-    MeshVertices, Options, Renderer, TargetDesc, ToCamera, View, wgpu,
+    MeshVertices, Options, Renderer, ToCamera, View,
 };
-use cdrf_tests::{data_dir, software_device};
+use cdrf_tests::{data_dir, draw_and_read, headless_target, software_device};
 
 const SIZE: u32 = 256;
 /// The tube's half length and radius, mm.
@@ -93,9 +91,7 @@ struct Bench {
 impl Bench {
     fn new() -> Self {
         let device = software_device();
-        let target_desc = TargetDesc::new(HEADLESS_COLOR_FORMAT)
-            .with_sample_count(4)
-            .with_depth(HEADLESS_DEPTH_FORMAT);
+        let target_desc = headless_target();
         let mut renderer = Renderer::new(&device.device, &target_desc, Options::PREDICTABLE);
         let lut = read_lut(data_dir().join("wax-fit/measured.exr"))
             .unwrap_or_else(|error| panic!("{error}"));
@@ -143,27 +139,11 @@ impl Bench {
             mm_per_world_unit: 1.0,
             environment: None,
         };
-        let mut commands = self
+        let commands = self
             .renderer
             .prepare(&device.device, &device.queue, &frame)
             .unwrap_or_else(|error| panic!("{error}"));
-        let mut encoder = device
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-        {
-            let mut pass = self
-                .target
-                .begin_pass(&mut encoder, wgpu::Color::TRANSPARENT);
-            self.renderer.render(&mut pass);
-        }
-        let readback =
-            TextureReadback::record(&device.device, &mut encoder, self.target.resolved())
-                .unwrap_or_else(|error| panic!("{error}"));
-        commands.push(encoder.finish());
-        device.queue.submit(commands);
-        readback
-            .read_rgba16f(&device.device)
-            .unwrap_or_else(|error| panic!("{error}"))
+        draw_and_read(&self.target, commands, |pass| self.renderer.render(pass))
     }
 }
 

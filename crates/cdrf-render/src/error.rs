@@ -233,6 +233,9 @@ pub enum PrepareError {
     /// The view matrix, camera position or direction is unusable.
     #[error("the view matrix or camera position is not finite, or the camera direction is zero")]
     BadView,
+    /// A view was added before a frame was prepared (or after a `prepare` failed).
+    #[error("no prepared frame to add a view to: call prepare first")]
+    NotPrepared,
     /// The exposure is negative, not finite or above [`MAX_EXPOSURE`].
     #[error("exposure {exposure}: must be in 0..={MAX_EXPOSURE}")]
     BadExposure {

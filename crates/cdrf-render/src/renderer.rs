@@ -10,9 +10,10 @@ use cdrf_core::specular::SpecularLayer;
 use crate::constants::Model;
 use crate::draw_buffer::{DrawBuffer, draw_binding, draw_uniforms, stage_draw};
 use crate::error::{MaterialError, MeshUploadError, PrepareError, SurfaceError};
+use crate::frame::View;
 use crate::frame::{Draw, FrameDesc};
-use crate::frame_uniforms::frame_uniforms;
-use crate::gpu_types::{GpuDraw, GpuFrame, SHADING_STAGES, uniform_layout_entry, uniform_size};
+use crate::frame_uniforms::{ViewBuffer, frame_uniforms};
+use crate::gpu_types::{GpuDraw, GpuFrame, SHADING_STAGES, uniform_layout_entry};
 use crate::ids::{MaterialId, MeshId, SurfaceId};
 use crate::material::{GpuMaterialEntry, MaterialDesc, MaterialFactory};
 use crate::mesh::{GpuMesh, MeshDesc, MeshVertices};
@@ -62,8 +63,8 @@ pub struct Renderer {
     light_maps: LightMaps,
     vertex_terms: VertexTermsPass,
     draw_layout: wgpu::BindGroupLayout,
-    frame_buffer: wgpu::Buffer,
-    frame_bind_group: wgpu::BindGroup,
+    /// The frame uniforms, once per view.
+    views: ViewBuffer,
     draws: DrawBuffer,
     /// The surface of draws without one (white, no textures), made by the first `prepare`
     /// (its textures need the queue); its bind group also serves the light maps, which read
@@ -96,7 +97,8 @@ impl Renderer {
     pub fn new(device: &wgpu::Device, target: &TargetDesc, options: Options) -> Self {
         let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf frame layout"),
-            entries: &[uniform_layout_entry::<GpuFrame>(0, SHADING_STAGES, false)],
+            // A dynamic offset: one copy per view (`add_view`).
+            entries: &[uniform_layout_entry::<GpuFrame>(0, SHADING_STAGES, true)],
         });
         let [t0, t1, t2, s0, s1, s2] = crate::surface::texture_layout_entries();
         let draw_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -122,20 +124,6 @@ impl Renderer {
                 &light_maps.layout,
             ],
         );
-        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("cdrf frame uniforms"),
-            size: uniform_size::<GpuFrame>().get(),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("cdrf frame"),
-            layout: &frame_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: frame_buffer.as_entire_binding(),
-            }],
-        });
         Self {
             options,
             target: *target,
@@ -144,8 +132,7 @@ impl Renderer {
             light_maps,
             vertex_terms: VertexTermsPass::new(device),
             draw_layout,
-            frame_buffer,
-            frame_bind_group,
+            views: ViewBuffer::new(device, frame_layout),
             draws: DrawBuffer::new(device),
             default_surface: None,
             meshes: HashMap::new(),
@@ -424,6 +411,7 @@ impl Renderer {
         frame: &FrameDesc<'_>,
     ) -> Result<Vec<wgpu::CommandBuffer>, PrepareError> {
         self.prepared.clear();
+        self.views.clear();
         self.light_maps.clear();
         let frame_uniforms = frame_uniforms(frame)?;
         self.ensure_default_surface(device, queue);
@@ -440,7 +428,7 @@ impl Renderer {
                 &mut staging,
             )?);
         }
-        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame_uniforms));
+        self.views.set_frame(queue, frame_uniforms);
         self.upload_draws(device, queue, &staging, frame.draws.len());
         self.vertex_terms.reserve(device, &terms);
 
@@ -450,7 +438,7 @@ impl Renderer {
         }
         if !terms.is_empty() {
             let inputs = TermsInputs {
-                frame: &self.frame_bind_group,
+                frame: &self.views.bind_group,
                 light_maps: self.light_maps.bind_group(),
                 draws: &self.draws.buffer,
                 meshes: &self.meshes,
@@ -627,7 +615,7 @@ impl Renderer {
             })
             .collect();
         let bindings = LightViewBindings {
-            frame: &self.frame_bind_group,
+            frame: &self.views.bind_group,
             draws: &self
                 .default_surface
                 .as_ref()
@@ -673,7 +661,73 @@ impl Renderer {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn render(&self, pass: &mut wgpu::RenderPass<'_>) {
-        self.render_draws(pass, 0..self.prepared.len());
+        self.record(pass, 0, 0..self.prepared.len());
+    }
+
+    /// Adds another view of the last prepared frame — a second camera of a split screen, a
+    /// reflection probe's face — with its own camera and exposure; the lights, draws and
+    /// non-local passes are the frame's, prepared once. Returns the index to give
+    /// [`Renderer::render_view`] (the [`FrameDesc`]'s own view is 0). Views last until the next
+    /// `prepare`; each is drawn into a pass with this renderer's target.
+    ///
+    /// ```
+    /// use cdrf_core::glam::{self, Mat4, Vec3};
+    /// use cdrf_core::{CurvatureOptions, Mesh, mean_curvature_per_mm};
+    /// use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
+    /// use cdrf_render::{DirectionalLight, Draw, FrameDesc, MaterialDesc, MeshDesc, NonLocal,
+    ///                   Options, Renderer, TargetDesc, ToCamera, View, wgpu};
+    ///
+    /// # let host = HeadlessDevice::new(AdapterPreference::Software)?;
+    /// # let (device, queue) = (&host.device, &host.queue);
+    /// let mut renderer = Renderer::new(device, &TargetDesc::new(wgpu::TextureFormat::Rgba16Float),
+    ///                                  Options::default());
+    /// # let sphere = Mesh::icosphere(20.0, 3);
+    /// # let curvature = mean_curvature_per_mm(&sphere, &CurvatureOptions::new(1.0))?;
+    /// # let mesh = renderer.create_mesh(device, &MeshDesc::from_mesh(&sphere, &curvature))?;
+    /// # let material = renderer.create_material(device, queue, &MaterialDesc::Lambert { albedo: [0.8; 3] })?;
+    /// let camera = |eye: Vec3| View {
+    ///     clip_from_world: glam::camera::rh::proj::directx::orthographic(-25.0, 25.0, -25.0, 25.0, 0.0, 100.0)
+    ///         * glam::camera::rh::view::look_at_mat4(eye, Vec3::ZERO, Vec3::Y),
+    ///     to_camera: ToCamera::Direction(eye.normalize()),
+    /// };
+    /// let frame = FrameDesc {
+    ///     view: camera(Vec3::new(0.0, 0.0, 50.0)), // the left half of a split screen
+    ///     lights: &[DirectionalLight { to_light: Vec3::NEG_X, irradiance: [1.0; 3] }.into()],
+    ///     exposure: 1.0,
+    ///     draws: &[Draw::new(mesh, material, Mat4::IDENTITY)],
+    ///     non_local: NonLocal::OFF,
+    ///     mm_per_world_unit: 1.0,
+    ///     environment: None,
+    /// };
+    /// let commands = renderer.prepare(device, queue, &frame)?;
+    /// let right = renderer.add_view(device, queue, &camera(Vec3::new(50.0, 0.0, 0.0)), 1.0)?;
+    /// assert_eq!(right, 1);
+    /// // Then, in the left half's pass: renderer.render(&mut pass);
+    /// // in the right half's: renderer.render_view(&mut pass, right);
+    /// # queue.submit(commands);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`PrepareError::BadView`] or [`PrepareError::BadExposure`]; [`PrepareError::NotPrepared`]
+    /// before a `prepare` succeeded.
+    pub fn add_view(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        view: &View,
+        exposure: f32,
+    ) -> Result<usize, PrepareError> {
+        if self.views.offset(0).is_none() {
+            return Err(PrepareError::NotPrepared);
+        }
+        self.views.add_view(device, queue, view, exposure)
+    }
+
+    /// [`Renderer::render`] from view `view` ([`Renderer::add_view`]; 0: the frame's own). An
+    /// unknown view draws nothing.
+    pub fn render_view(&self, pass: &mut wgpu::RenderPass<'_>, view: usize) {
+        self.record(pass, view, 0..self.prepared.len());
     }
 
     /// Records the prepared draws with indices in `draws` (positions in the last
@@ -681,6 +735,13 @@ impl Renderer {
     /// several passes that share the camera and lights, e.g. the same mesh with two materials
     /// into two targets. Otherwise as [`Renderer::render`].
     pub fn render_draws(&self, pass: &mut wgpu::RenderPass<'_>, draws: Range<usize>) {
+        self.record(pass, 0, draws);
+    }
+
+    fn record(&self, pass: &mut wgpu::RenderPass<'_>, view: usize, draws: Range<usize>) {
+        let Some(view_offset) = self.views.offset(view) else {
+            return;
+        };
         let end = draws.end.min(self.prepared.len());
         let Some(prepared) = self.prepared.get(draws.start.min(end)..end) else {
             return;
@@ -688,7 +749,7 @@ impl Renderer {
         if prepared.is_empty() {
             return;
         }
-        pass.set_bind_group(0, &self.frame_bind_group, &[]);
+        pass.set_bind_group(0, &self.views.bind_group, &[view_offset]);
         pass.set_bind_group(3, self.light_maps.bind_group(), &[]);
         let mut current: Option<(Model, NonLocal)> = None;
         for draw in prepared {

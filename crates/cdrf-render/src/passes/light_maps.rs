@@ -482,7 +482,7 @@ fn record_light_view(
         multiview_mask: None,
     });
     pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, bindings.frame, &[]);
+    pass.set_bind_group(0, bindings.frame, &[0]); // view 0: the passes see no camera
     pass.set_bind_group(3, pass_bind_group, &[]);
     for caster in casters {
         pass.set_bind_group(1, caster.material, &[]);

@@ -226,7 +226,7 @@ impl VertexTermsPass {
             label: Some("cdrf vertex terms"),
             timestamp_writes: None,
         });
-        pass.set_bind_group(0, inputs.frame, &[]);
+        pass.set_bind_group(0, inputs.frame, &[0]); // view 0: the passes see no camera
         pass.set_bind_group(3, inputs.light_maps, &[]);
         dispatch(&mut pass, &runs, Kernel::VertexTerms, 1);
         for stage in interreflection::stages(emitter_count, inputs.bounces) {
