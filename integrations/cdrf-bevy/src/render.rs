@@ -1,6 +1,7 @@
-//! The render world's side: one cdrf-render `Renderer` per 3D camera on Bevy's device,
-//! prepared each frame with the extracted frame and recorded into the camera's HDR target and
-//! depth buffer after Bevy's opaque pass.
+//! The render world's side: cdrf-render `Renderer`s on Bevy's device, one per target (colour
+//! format and MSAA) that 3D cameras render into, prepared once a frame with the extracted frame
+//! and recorded into each camera's HDR target and depth buffer after Bevy's opaque pass, from
+//! the camera's own view.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -23,11 +24,17 @@ use crate::frame::{CdrfFrame, PreparedMesh, to_glam_mat4, to_glam_vec3};
 /// Bevy's main-pass depth format (`CORE_3D_DEPTH_FORMAT`), reversed Z.
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// The renderers, by the camera's render-world entity.
+/// The renderers by target, and which renderer and view each 3D camera draws with this frame
+/// (by render-world entity). Cameras with the same target (split screen, several windows or
+/// image targets of one format) share a renderer: meshes, materials and the non-local passes
+/// once, a view each.
 #[derive(Resource, Default)]
-pub(crate) struct CdrfViews(HashMap<Entity, ViewRenderer>);
+pub(crate) struct CdrfViews {
+    renderers: HashMap<TargetDesc, TargetRenderer>,
+    cameras: HashMap<Entity, (TargetDesc, usize)>,
+}
 
-struct ViewRenderer {
+struct TargetRenderer {
     renderer: Renderer,
     /// Uploaded meshes and materials, by the address of the frame's shared data (kept alive
     /// here, so an address is not reused while its entry exists).
@@ -35,7 +42,8 @@ struct ViewRenderer {
     materials: HashMap<usize, (Arc<ResolvedMaterial>, MaterialId)>,
     /// Skinned entities' own deforming meshes, by the main-world entity.
     skinned: HashMap<Entity, (Arc<PreparedMesh>, MeshId)>,
-    /// The commands `prepare` returned (light maps, vertex terms), submitted before the pass.
+    /// The commands `prepare` returned (light maps, vertex terms), submitted before the first
+    /// pass that draws with this renderer.
     commands: Mutex<Vec<wgpu::CommandBuffer>>,
     /// Whether this frame's `prepare` succeeded (else the pass draws nothing).
     prepared: bool,
@@ -45,8 +53,9 @@ pub(crate) fn extract_frame(mut commands: Commands, frame: Extract<Res<CdrfFrame
     commands.insert_resource((*frame).clone());
 }
 
-/// Prepares each 3D camera's renderer: uploads new meshes and materials, drops unused ones,
-/// and records the frame's non-local passes.
+/// Prepares a renderer per target with the first camera (by `order`) that renders into it,
+/// and adds the other cameras as views: uploads new meshes and materials, drops unused ones,
+/// and records the frame's non-local passes once per target.
 pub(crate) fn prepare_views(
     mut views: ResMut<CdrfViews>,
     frame: Res<CdrfFrame>,
@@ -63,21 +72,24 @@ pub(crate) fn prepare_views(
     let device = device.wgpu_device();
     let queue: &wgpu::Queue = &queue;
     let core_3d = Core3d.intern();
-    let mut seen = Vec::new();
-    for (entity, view, camera, target, msaa) in &cameras {
-        if camera.schedule != core_3d {
-            continue;
-        }
-        seen.push(entity);
+    let mut cameras: Vec<_> = cameras
+        .iter()
+        .filter(|(_, _, camera, _, _)| camera.schedule == core_3d)
+        .collect();
+    cameras.sort_by_key(|(_, _, camera, _, _)| camera.order);
+    let views = &mut *views;
+    views.cameras.clear();
+    let mut prepared_targets: Vec<TargetDesc> = Vec::new();
+    for (entity, view, camera, target, msaa) in cameras {
         let target = TargetDesc::new(target.main_texture_format())
             .with_sample_count(msaa.map_or(1, Msaa::samples))
             .with_depth(DEPTH_FORMAT);
-        let state = views.0.entry(entity).or_insert_with(|| {
+        let state = views.renderers.entry(target).or_insert_with(|| {
             let options = cdrf_render::Options {
                 depth_compare: wgpu::CompareFunction::Greater,
                 ..frame.settings.options
             };
-            ViewRenderer {
+            TargetRenderer {
                 renderer: Renderer::new(device, &target, options),
                 meshes: HashMap::new(),
                 materials: HashMap::new(),
@@ -86,19 +98,40 @@ pub(crate) fn prepare_views(
                 prepared: false,
             }
         });
-        if state.renderer.target() != &target {
-            state.renderer.set_target(&target);
-        }
-        state.prepared = false;
-        match prepare_view(state, device, queue, &frame, view, camera) {
-            Ok(commands) => {
-                *state.commands.lock().expect("not poisoned") = commands;
-                state.prepared = true;
+        let index = if prepared_targets.contains(&target) {
+            if !state.prepared {
+                continue;
             }
-            Err(error) => error_once!("cdrf: cannot render the CDRF meshes: {error}"),
-        }
+            match state
+                .renderer
+                .add_view(device, queue, &view_of(view), camera.exposure)
+            {
+                Ok(index) => index,
+                Err(error) => {
+                    error_once!("cdrf: cannot render the CDRF meshes from a camera: {error}");
+                    continue;
+                }
+            }
+        } else {
+            prepared_targets.push(target);
+            state.prepared = false;
+            match prepare_frame(state, device, queue, &frame, view, camera) {
+                Ok(commands) => {
+                    *state.commands.lock().expect("not poisoned") = commands;
+                    state.prepared = true;
+                }
+                Err(error) => {
+                    error_once!("cdrf: cannot render the CDRF meshes: {error}");
+                    continue;
+                }
+            }
+            0
+        };
+        views.cameras.insert(entity, (target, index));
     }
-    views.0.retain(|entity, _| seen.contains(entity));
+    views
+        .renderers
+        .retain(|target, _| prepared_targets.contains(target));
 }
 
 /// Why a view could not be prepared.
@@ -112,8 +145,8 @@ enum ViewError {
     Prepare(#[from] cdrf_render::PrepareError),
 }
 
-fn prepare_view(
-    state: &mut ViewRenderer,
+fn prepare_frame(
+    state: &mut TargetRenderer,
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     frame: &CdrfFrame,
@@ -188,21 +221,8 @@ fn prepare_view(
         }
     });
 
-    let clip_from_view = view.clip_from_view;
-    let world_from_view = view.world_from_view.to_matrix();
-    let clip_from_world = view
-        .clip_from_world
-        .unwrap_or(clip_from_view * world_from_view.inverse());
-    let to_camera = if clip_from_view.w_axis.w == 1.0 {
-        ToCamera::Direction(to_glam_vec3(view.world_from_view.back().as_vec3()))
-    } else {
-        ToCamera::Point(to_glam_vec3(view.world_from_view.translation()))
-    };
     let desc = FrameDesc {
-        view: View {
-            clip_from_world: to_glam_mat4(clip_from_world),
-            to_camera,
-        },
+        view: view_of(view),
         lights: &frame.lights,
         exposure: camera.exposure,
         draws: &draws,
@@ -213,6 +233,24 @@ fn prepare_view(
     Ok(state.renderer.prepare(device, queue, &desc)?)
 }
 
+/// A Bevy camera's view as cdrf's.
+fn view_of(view: &ExtractedView) -> View {
+    let clip_from_view = view.clip_from_view;
+    let world_from_view = view.world_from_view.to_matrix();
+    let clip_from_world = view
+        .clip_from_world
+        .unwrap_or(clip_from_view * world_from_view.inverse());
+    let to_camera = if clip_from_view.w_axis.w == 1.0 {
+        ToCamera::Direction(to_glam_vec3(view.world_from_view.back().as_vec3()))
+    } else {
+        ToCamera::Point(to_glam_vec3(view.world_from_view.translation()))
+    };
+    View {
+        clip_from_world: to_glam_mat4(clip_from_world),
+        to_camera,
+    }
+}
+
 fn mesh_desc(prepared: &PreparedMesh) -> MeshDesc<'_> {
     MeshDesc::from_mesh(&prepared.mesh, &prepared.curvature_per_mm)
         .with_curvature_anisotropy(&prepared.anisotropy_per_mm)
@@ -220,7 +258,7 @@ fn mesh_desc(prepared: &PreparedMesh) -> MeshDesc<'_> {
 
 /// A skinned entity's deforming mesh, made anew when the entity's mesh asset changed.
 fn skinned_mesh(
-    state: &mut ViewRenderer,
+    state: &mut TargetRenderer,
     device: &wgpu::Device,
     entity: Entity,
     prepared: &Arc<PreparedMesh>,
@@ -244,12 +282,12 @@ pub(crate) fn cdrf_main_pass_3d(
     views: Res<CdrfViews>,
     mut ctx: RenderContext,
 ) {
-    let Some(state) = views.0.get(&view.entity()) else {
+    let Some((target, index)) = views.cameras.get(&view.entity()) else {
         return;
     };
-    if !state.prepared {
+    let Some(state) = views.renderers.get(target).filter(|state| state.prepared) else {
         return;
-    }
+    };
     let (camera, target, depth) = view.into_inner();
     for commands in state.commands.lock().expect("not poisoned").drain(..) {
         ctx.add_command_buffer(commands);
@@ -273,5 +311,5 @@ pub(crate) fn cdrf_main_pass_3d(
             viewport.depth.end,
         );
     }
-    state.renderer.render(&mut pass);
+    state.renderer.render_view(&mut pass, *index);
 }

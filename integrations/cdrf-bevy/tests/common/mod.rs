@@ -82,25 +82,33 @@ pub fn float_target(app: &mut App, width: u32, height: u32) -> Handle<Image> {
 }
 
 /// Runs the app a few frames, then captures `target`.
-pub fn capture(mut app: App, target: Handle<Image>) -> Image {
+pub fn capture(app: App, target: Handle<Image>) -> Image {
+    capture_all(app, &[target]).remove(0)
+}
+
+/// Runs the app a few frames, then captures each of `targets` (of one frame).
+pub fn capture_all(mut app: App, targets: &[Handle<Image>]) -> Vec<Image> {
     finish_plugins(&mut app);
     for _ in 0..3 {
         app.update();
     }
-    let captured: Arc<Mutex<Option<Image>>> = Arc::default();
-    let sink = captured.clone();
-    app.world_mut().spawn(Screenshot::image(target)).observe(
-        move |event: On<ScreenshotCaptured>| {
-            *sink.lock().expect("not poisoned") = Some(event.image.clone());
-        },
-    );
+    let captured: Arc<Mutex<Vec<Option<Image>>>> = Arc::new(Mutex::new(vec![None; targets.len()]));
+    for (index, target) in targets.iter().enumerate() {
+        let sink = captured.clone();
+        app.world_mut()
+            .spawn(Screenshot::image(target.clone()))
+            .observe(move |event: On<ScreenshotCaptured>| {
+                sink.lock().expect("not poisoned")[index] = Some(event.image.clone());
+            });
+    }
     for _ in 0..20 {
         app.update();
-        if let Some(image) = captured.lock().expect("not poisoned").take() {
-            return image;
+        let mut captured = captured.lock().expect("not poisoned");
+        if captured.iter().all(Option::is_some) {
+            return captured.drain(..).flatten().collect();
         }
     }
-    panic!("no screenshot after 20 frames");
+    panic!("no screenshot of every target after 20 frames");
 }
 
 /// Linear RGB of a captured pixel.
