@@ -8,7 +8,6 @@
 //! `cargo run --release --example glow` in `integrations/cdrf-bevy`;
 //! `… --example glow -- --screenshot glow.png` saves the 30th frame (the light still) and exits.
 
-use bevy::light::GlobalAmbientLight;
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured, save_to_disk};
 use cdrf_bevy::{CdrfPlugin, CdrfSettings};
@@ -43,11 +42,7 @@ fn main() {
             }),
         CdrfPlugin::default(),
     ))
-    .insert_resource(GlobalAmbientLight {
-        color: Color::srgb(0.6, 0.7, 1.0),
-        brightness: 150.0,
-        ..default()
-    })
+    .insert_resource(common::sky())
     .add_systems(Startup, setup)
     .add_systems(Update, toggle_non_local);
     match screenshot {

@@ -3,6 +3,7 @@
 //! metres.
 
 use bevy::asset::RenderAssetUsages;
+use bevy::light::GlobalAmbientLight;
 use bevy::prelude::*;
 use cdrf_bevy::{CdrfMaterial, CdrfMaterial3d};
 
@@ -117,6 +118,16 @@ pub fn spawn_showcase(world: &mut World, shading: Shading) {
         Transform::from_xyz(0.18, 0.1, 0.18),
         ShowcaseLight,
     ));
+}
+
+/// The sky: a uniform blue-white ambient light (cdrf lights with it as a uniform sky).
+#[allow(dead_code)] // the benchmark leaves it out
+pub fn sky() -> GlobalAmbientLight {
+    GlobalAmbientLight {
+        color: Color::srgb(0.6, 0.7, 1.0),
+        brightness: 150.0,
+        ..default()
+    }
 }
 
 /// The camera's place.

@@ -39,8 +39,11 @@ pub fn headless_app(settings: CdrfSettings) -> App {
     app
 }
 
-/// Finishes the plugins' set-up (what `App::run` does before its first update).
+/// Finishes the plugins' set-up (what `App::run` does before its first update), once.
 pub fn finish_plugins(app: &mut App) {
+    if app.plugins_state() == PluginsState::Cleaned {
+        return;
+    }
     while app.plugins_state() == PluginsState::Adding {
         bevy::tasks::tick_global_task_pools_on_main_thread();
     }
