@@ -5,7 +5,7 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use bevy::light::GlobalAmbientLight;
+use bevy::light::{EnvironmentMapLight, GlobalAmbientLight};
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
@@ -17,6 +17,7 @@ use cdrf_core::mesh::MeshData;
 
 use crate::CdrfSettings;
 use crate::assets::{CdrfMaterial, CdrfMaterial3d, CdrfTable, ResolvedMaterial};
+use crate::environment::{add_sh, diffuse_map_sh};
 use crate::skinning::{self, Pose, SkinWeights};
 use crate::units;
 
@@ -58,7 +59,12 @@ pub(crate) struct CdrfFrame {
 pub(crate) struct CdrfCaches {
     meshes: HashMap<(AssetId<Mesh>, u32), Option<Arc<PreparedMesh>>>,
     materials: HashMap<AssetId<CdrfMaterial>, Arc<ResolvedMaterial>>,
+    /// The last environment map's projection (before its intensity), by its diffuse map and
+    /// rotation; `None` inside when it cannot be read.
+    environment: Option<(EnvironmentKey, Option<ShCoefficients>)>,
 }
+
+type EnvironmentKey = (AssetId<Image>, [u32; 4]);
 
 /// Drops cached curvature and tables whose assets changed (hot reload).
 pub(crate) fn invalidate_caches(
@@ -66,6 +72,7 @@ pub(crate) fn invalidate_caches(
     mut meshes: MessageReader<AssetEvent<Mesh>>,
     mut materials: MessageReader<AssetEvent<CdrfMaterial>>,
     mut tables: MessageReader<AssetEvent<CdrfTable>>,
+    mut images: MessageReader<AssetEvent<Image>>,
 ) {
     for event in meshes.read() {
         if let AssetEvent::Modified { id } | AssetEvent::Removed { id } = event {
@@ -75,6 +82,16 @@ pub(crate) fn invalidate_caches(
     for event in materials.read() {
         if let AssetEvent::Modified { id } | AssetEvent::Removed { id } = event {
             caches.materials.remove(id);
+        }
+    }
+    for event in images.read() {
+        if let AssetEvent::Modified { id } | AssetEvent::Removed { id } = event
+            && caches
+                .environment
+                .as_ref()
+                .is_some_and(|((image, _), _)| image == id)
+        {
+            caches.environment = None;
         }
     }
     // A material is cached only once its table has loaded: only a reloaded table matters.
@@ -112,6 +129,8 @@ pub(crate) fn gather_frame(
     point: Query<(&PointLight, &GlobalTransform, &InheritedVisibility)>,
     spot: Query<(&SpotLight, &GlobalTransform, &InheritedVisibility)>,
     ambient: Option<Res<GlobalAmbientLight>>,
+    environment_maps: Query<(&EnvironmentMapLight, &Camera), With<Camera3d>>,
+    images: Res<Assets<Image>>,
 ) {
     let caches = &mut *caches;
     frame.settings = settings.clone();
@@ -202,13 +221,53 @@ pub(crate) fn gather_frame(
     }
     frame.lights = lights;
 
-    frame.environment = ambient.and_then(|ambient| {
+    let ambient = ambient.and_then(|ambient| {
         let radiance = units::ambient_radiance(linear(ambient.color), ambient.brightness);
         (radiance.iter().any(|&r| r > 0.0))
             .then(|| Environment::uniform(radiance).ok())
             .flatten()
             .map(|sky| sky.project_sh(cdrf_render::ENVIRONMENT_SH_ORDER))
     });
+    let map = environment_map(&mut caches.environment, &environment_maps, &images);
+    frame.environment = match (ambient, map) {
+        (Some(a), Some(b)) => Some(add_sh(&a, &b)),
+        (a, b) => a.or(b),
+    };
+}
+
+/// The environment map of the 3D cameras (the first active one with a map: cdrf lights a
+/// frame with one sky), projected once per diffuse map and rotation, times its intensity.
+fn environment_map(
+    cache: &mut Option<(EnvironmentKey, Option<ShCoefficients>)>,
+    maps: &Query<(&EnvironmentMapLight, &Camera), With<Camera3d>>,
+    images: &Assets<Image>,
+) -> Option<ShCoefficients> {
+    let mut active = maps.iter().filter(|(_, camera)| camera.is_active);
+    let (light, _) = active.next()?;
+    if active.any(|(other, _)| other.diffuse_map != light.diffuse_map) {
+        warn_once!("cdrf: cameras with different environment maps; CDRF meshes use the first");
+    }
+    let key = (
+        light.diffuse_map.id(),
+        light.rotation.to_array().map(f32::to_bits),
+    );
+    if cache.as_ref().is_none_or(|(cached, _)| *cached != key) {
+        let image = images.get(&light.diffuse_map)?; // still loading
+        let sh = diffuse_map_sh(image, light.rotation)
+            .inspect_err(|error| {
+                error!("cdrf: the environment map does not light the CDRF meshes: {error}");
+            })
+            .ok();
+        *cache = Some((key, sh));
+    }
+    let (_, sh) = cache.as_ref()?;
+    sh.as_ref().map(|sh| ShCoefficients {
+        coefficients: sh
+            .coefficients
+            .iter()
+            .map(|c| c.map(|v| v * light.intensity))
+            .collect(),
+    })
 }
 
 /// A skinned entity's vertices this frame.

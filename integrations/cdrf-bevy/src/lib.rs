@@ -33,6 +33,7 @@
 //! length) when it is first drawn, in model units × [`CdrfSettings::mm_per_unit`].
 
 mod assets;
+mod environment;
 mod frame;
 mod render;
 mod skinning;
