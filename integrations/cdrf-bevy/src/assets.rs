@@ -10,6 +10,7 @@ use bevy::prelude::*;
 use cdrf_core::CdrfLut;
 use cdrf_core::lut_file::LutFileError;
 use cdrf_core::presets::PresetError;
+use cdrf_core::specular::SpecularLayer;
 
 /// A measured table f(κ, θ) with its view correction and material terms: cdrf-fit's
 /// `measured.exr` or a `cdrf-preset` output, loaded by the asset server (hot reload included).
@@ -65,11 +66,16 @@ impl AssetLoader for CdrfTableLoader {
     }
 }
 
-/// How a CDRF mesh is shaded: a measured table, loaded as an asset or built in.
+/// How a CDRF mesh is shaded: a measured table, loaded as an asset or built in, and
+/// optionally a first-surface reflection on top.
 #[derive(Asset, TypePath, Clone, Debug)]
 pub struct CdrfMaterial {
     /// The table.
     pub model: CdrfModel,
+    /// A rough dielectric boundary's specular reflection (`None`: the subsurface light only).
+    /// A surface's roughness ([`CdrfOverride`](crate::CdrfOverride)'s `StandardMaterial`)
+    /// replaces its roughness per pixel.
+    pub specular: Option<SpecularLayer>,
 }
 
 /// Where a material's table comes from.
@@ -88,7 +94,13 @@ pub enum CdrfModel {
 
 /// A material ready to draw: its table loaded.
 #[derive(Debug)]
-pub(crate) enum ResolvedMaterial {
+pub(crate) struct ResolvedMaterial {
+    pub(crate) model: ResolvedModel,
+    pub(crate) specular: Option<SpecularLayer>,
+}
+
+#[derive(Debug)]
+pub(crate) enum ResolvedModel {
     Measured(Arc<CdrfLut>),
     Lambert([f32; 3]),
 }
@@ -96,9 +108,9 @@ pub(crate) enum ResolvedMaterial {
 impl ResolvedMaterial {
     /// How far light travels under the surface, mm (the curvature filter's length).
     pub(crate) fn diffusion_length_mm(&self) -> Option<f32> {
-        match self {
-            Self::Measured(lut) => lut.diffusion_length_mm(),
-            Self::Lambert(_) => None,
+        match &self.model {
+            ResolvedModel::Measured(lut) => lut.diffusion_length_mm(),
+            ResolvedModel::Lambert(_) => None,
         }
     }
 }
@@ -108,6 +120,7 @@ impl CdrfMaterial {
     pub fn from_lut(table: Handle<CdrfTable>) -> Self {
         Self {
             model: CdrfModel::Table(table),
+            specular: None,
         }
     }
 
@@ -118,6 +131,7 @@ impl CdrfMaterial {
     pub fn preset(name: &str) -> Result<Self, PresetError> {
         Ok(Self {
             model: CdrfModel::Lut(Arc::new(cdrf_core::presets::lut(name)?.clone())),
+            specular: None,
         })
     }
 
@@ -125,6 +139,7 @@ impl CdrfMaterial {
     pub fn from_table(lut: CdrfLut) -> Self {
         Self {
             model: CdrfModel::Lut(Arc::new(lut)),
+            specular: None,
         }
     }
 
@@ -132,15 +147,28 @@ impl CdrfMaterial {
     pub fn lambert(albedo: [f32; 3]) -> Self {
         Self {
             model: CdrfModel::Lambert { albedo },
+            specular: None,
+        }
+    }
+
+    /// With a specular layer on top (e.g. [`SpecularLayer::new`]).
+    pub fn with_specular(self, layer: SpecularLayer) -> Self {
+        Self {
+            specular: Some(layer),
+            ..self
         }
     }
 
     /// The material ready to draw (`None` while its table loads).
     pub(crate) fn resolve(&self, tables: &Assets<CdrfTable>) -> Option<ResolvedMaterial> {
-        Some(match &self.model {
-            CdrfModel::Table(handle) => ResolvedMaterial::Measured(tables.get(handle)?.0.clone()),
-            CdrfModel::Lut(lut) => ResolvedMaterial::Measured(lut.clone()),
-            CdrfModel::Lambert { albedo } => ResolvedMaterial::Lambert(*albedo),
+        let model = match &self.model {
+            CdrfModel::Table(handle) => ResolvedModel::Measured(tables.get(handle)?.0.clone()),
+            CdrfModel::Lut(lut) => ResolvedModel::Measured(lut.clone()),
+            CdrfModel::Lambert { albedo } => ResolvedModel::Lambert(*albedo),
+        };
+        Some(ResolvedMaterial {
+            model,
+            specular: self.specular,
         })
     }
 }

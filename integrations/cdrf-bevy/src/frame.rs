@@ -19,6 +19,7 @@ use crate::CdrfSettings;
 use crate::assets::{CdrfMaterial, CdrfMaterial3d, CdrfTable, ResolvedMaterial};
 use crate::environment::{add_sh, diffuse_map_sh};
 use crate::skinning::{self, Pose, SkinWeights};
+use crate::surface::{CdrfSurface, PreparedSurface, prepare_surface};
 use crate::units;
 
 /// A mesh asset as cdrf-render takes it: its triangles and per-vertex curvature.
@@ -31,6 +32,8 @@ pub struct PreparedMesh {
     pub anisotropy_per_mm: Vec<glam::Vec3>,
     /// Its joint weights, where the Bevy mesh has them and cdrf kept every vertex in order.
     pub(crate) skin: Option<SkinWeights>,
+    /// Its tangents (`ATTRIBUTE_TANGENT`, for normal maps), on the same condition.
+    pub tangents: Option<Vec<glam::Vec4>>,
 }
 
 /// One CDRF entity of the frame.
@@ -42,6 +45,8 @@ pub(crate) struct FrameDraw {
     /// A skinned entity's vertices this frame (world units; the transform is then the
     /// identity), and the entity, whose own deforming copy of the mesh they move.
     pub pose: Option<(Entity, Arc<Pose>)>,
+    /// What it is painted with ([`CdrfSurface`]).
+    pub surface: Option<Arc<PreparedSurface>>,
 }
 
 /// Everything the render world needs for a frame (cheap to clone: shared data is in `Arc`s).
@@ -59,6 +64,8 @@ pub(crate) struct CdrfFrame {
 pub(crate) struct CdrfCaches {
     meshes: HashMap<(AssetId<Mesh>, u32), Option<Arc<PreparedMesh>>>,
     materials: HashMap<AssetId<CdrfMaterial>, Arc<ResolvedMaterial>>,
+    /// Surfaces by `StandardMaterial` (`None`: it cannot paint; said once).
+    surfaces: HashMap<AssetId<StandardMaterial>, Option<Arc<PreparedSurface>>>,
     /// The last environment map's projection (before its intensity), by its diffuse map and
     /// rotation; `None` inside when it cannot be read.
     environment: Option<(EnvironmentKey, Option<ShCoefficients>)>,
@@ -73,7 +80,13 @@ pub(crate) fn invalidate_caches(
     mut materials: MessageReader<AssetEvent<CdrfMaterial>>,
     mut tables: MessageReader<AssetEvent<CdrfTable>>,
     mut images: MessageReader<AssetEvent<Image>>,
+    mut standard: MessageReader<AssetEvent<StandardMaterial>>,
 ) {
+    for event in standard.read() {
+        if let AssetEvent::Modified { id } | AssetEvent::Removed { id } = event {
+            caches.surfaces.remove(id);
+        }
+    }
     for event in meshes.read() {
         if let AssetEvent::Modified { id } | AssetEvent::Removed { id } = event {
             caches.meshes.retain(|(mesh, _), _| mesh != id);
@@ -85,6 +98,9 @@ pub(crate) fn invalidate_caches(
         }
     }
     for event in images.read() {
+        if let AssetEvent::Modified { .. } | AssetEvent::Removed { .. } = event {
+            caches.surfaces.clear(); // (a texture of one of them, perhaps)
+        }
         if let AssetEvent::Modified { id } | AssetEvent::Removed { id } = event
             && caches
                 .environment
@@ -111,6 +127,7 @@ type CdrfEntity = (
     &'static GlobalTransform,
     &'static InheritedVisibility,
     Option<&'static SkinnedMesh>,
+    Option<&'static CdrfSurface>,
 );
 
 /// Gathers the frame: draws (their curvature computed on first use), lights, the sky.
@@ -131,11 +148,12 @@ pub(crate) fn gather_frame(
     ambient: Option<Res<GlobalAmbientLight>>,
     environment_maps: Query<(&EnvironmentMapLight, &Camera), With<Camera3d>>,
     images: Res<Assets<Image>>,
+    standard_materials: Res<Assets<StandardMaterial>>,
 ) {
     let caches = &mut *caches;
     frame.settings = settings.clone();
     frame.draws.clear();
-    for (entity, mesh, material, transform, visibility, skin) in &draws {
+    for (entity, mesh, material, transform, visibility, skin, surface) in &draws {
         if !visibility.get() {
             continue;
         }
@@ -154,6 +172,15 @@ pub(crate) fn gather_frame(
         ) else {
             continue;
         };
+        let surface = match surface {
+            None => None,
+            Some(CdrfSurface(handle)) => {
+                match resolved_surface(&mut caches.surfaces, handle, &standard_materials, &images) {
+                    Some(surface) => surface,
+                    None => continue, // its textures are loading
+                }
+            }
+        };
         let pose = skin.and_then(|skin| {
             pose(&mesh, skin, &bindposes, &transforms)
                 .inspect_err(|error| {
@@ -170,6 +197,7 @@ pub(crate) fn gather_frame(
             pose: pose.map(|pose| (entity, Arc::new(pose))),
             mesh,
             material,
+            surface,
         });
     }
 
@@ -288,6 +316,28 @@ fn pose(
     )
 }
 
+/// A `StandardMaterial`'s surface: `None` while it loads, `Some(None)` when it cannot paint.
+fn resolved_surface(
+    cache: &mut HashMap<AssetId<StandardMaterial>, Option<Arc<PreparedSurface>>>,
+    handle: &Handle<StandardMaterial>,
+    materials: &Assets<StandardMaterial>,
+    images: &Assets<Image>,
+) -> Option<Option<Arc<PreparedSurface>>> {
+    if let Some(surface) = cache.get(&handle.id()) {
+        return Some(surface.clone());
+    }
+    let surface = match prepare_surface(materials.get(handle)?, images) {
+        Ok(surface) => surface?.into(),
+        Err(error) => {
+            warn!("cdrf: material {handle:?} does not paint its CDRF meshes: {error}");
+            None
+        }
+    }
+    .map(Arc::new);
+    cache.insert(handle.id(), surface.clone());
+    Some(surface)
+}
+
 fn resolved_material(
     cache: &mut HashMap<AssetId<CdrfMaterial>, Arc<ResolvedMaterial>>,
     id: AssetId<CdrfMaterial>,
@@ -394,14 +444,23 @@ pub fn prepare_mesh(
         &mesh,
         &CurvatureOptions::new(mm_per_unit).with_filter_length_mm(filter_mm),
     )?;
-    // Skin weights follow the vertices only where the repair removed none.
-    let skin = SkinWeights::of(source)
-        .filter(|skin| skin.len() == vertex_count && mesh.positions.len() == vertex_count);
+    // Skin weights and tangents follow the vertices only where the repair removed none.
+    let kept_order = mesh.positions.len() == vertex_count;
+    let skin = SkinWeights::of(source).filter(|skin| kept_order && skin.len() == vertex_count);
+    let tangents = match source.try_attribute_option(Mesh::ATTRIBUTE_TANGENT) {
+        Ok(Some(VertexAttributeValues::Float32x4(values)))
+            if kept_order && values.len() == vertex_count =>
+        {
+            Some(values.iter().map(|&t| glam::Vec4::from_array(t)).collect())
+        }
+        _ => None,
+    };
     Ok(PreparedMesh {
         mesh,
         curvature_per_mm: curvature.mean_per_mm,
         anisotropy_per_mm: curvature.anisotropy_per_mm,
         skin,
+        tangents,
     })
 }
 

@@ -37,6 +37,7 @@ mod environment;
 mod frame;
 mod render;
 mod skinning;
+mod surface;
 pub mod units;
 
 use bevy::asset::AssetApp;
@@ -50,6 +51,7 @@ pub use assets::{
     CdrfMaterial, CdrfMaterial3d, CdrfModel, CdrfTable, CdrfTableLoadError, CdrfTableLoader,
 };
 pub use frame::{MeshConversionError, PreparedMesh, mesh_from_cdrf, prepare_mesh};
+pub use surface::{CdrfOverride, CdrfSurface};
 
 /// What the plugin renders with; a resource, so it can change at run time (e.g. a toggle of
 /// the non-local terms).
@@ -92,7 +94,11 @@ impl Plugin for CdrfPlugin {
             .init_resource::<frame::CdrfCaches>()
             .add_systems(
                 PostUpdate,
-                (frame::invalidate_caches, frame::gather_frame)
+                (
+                    surface::apply_overrides,
+                    frame::invalidate_caches,
+                    frame::gather_frame,
+                )
                     .chain()
                     .after(TransformSystems::Propagate)
                     .after(bevy::camera::visibility::VisibilitySystems::VisibilityPropagate),

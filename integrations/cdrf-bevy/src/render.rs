@@ -14,12 +14,13 @@ use bevy::render::camera::ExtractedCamera;
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
 use bevy::render::view::{ExtractedView, Msaa, ViewDepthStencilTexture, ViewTarget};
 use cdrf_render::{
-    Draw, FrameDesc, MaterialDesc, MaterialId, MeshDesc, MeshId, MeshVertices, Renderer,
+    Draw, FrameDesc, MaterialDesc, MaterialId, MeshDesc, MeshId, MeshVertices, Renderer, SurfaceId,
     TargetDesc, ToCamera, View, wgpu,
 };
 
-use crate::assets::ResolvedMaterial;
+use crate::assets::{ResolvedMaterial, ResolvedModel};
 use crate::frame::{CdrfFrame, PreparedMesh, to_glam_mat4, to_glam_vec3};
+use crate::surface::PreparedSurface;
 
 /// Bevy's main-pass depth format (`CORE_3D_DEPTH_FORMAT`), reversed Z.
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -40,6 +41,7 @@ struct TargetRenderer {
     /// here, so an address is not reused while its entry exists).
     meshes: HashMap<usize, (Arc<PreparedMesh>, MeshId)>,
     materials: HashMap<usize, (Arc<ResolvedMaterial>, MaterialId)>,
+    surfaces: HashMap<usize, (Arc<PreparedSurface>, SurfaceId)>,
     /// Skinned entities' own deforming meshes, by the main-world entity.
     skinned: HashMap<Entity, (Arc<PreparedMesh>, MeshId)>,
     /// The commands `prepare` returned (light maps, vertex terms), submitted before the first
@@ -93,6 +95,7 @@ pub(crate) fn prepare_views(
                 renderer: Renderer::new(device, &target, options),
                 meshes: HashMap::new(),
                 materials: HashMap::new(),
+                surfaces: HashMap::new(),
                 skinned: HashMap::new(),
                 commands: Mutex::new(Vec::new()),
                 prepared: false,
@@ -141,6 +144,8 @@ enum ViewError {
     Mesh(#[from] cdrf_render::MeshUploadError),
     #[error("material: {0}")]
     Material(#[from] cdrf_render::MaterialError),
+    #[error("surface: {0}")]
+    Surface(#[from] cdrf_render::SurfaceError),
     #[error("frame: {0}")]
     Prepare(#[from] cdrf_render::PrepareError),
 }
@@ -155,7 +160,7 @@ fn prepare_frame(
 ) -> Result<Vec<wgpu::CommandBuffer>, ViewError> {
     let mut draws = Vec::with_capacity(frame.draws.len());
     let (mut used_meshes, mut used_materials) = (Vec::new(), Vec::new());
-    let mut used_skinned = Vec::new();
+    let (mut used_skinned, mut used_surfaces) = (Vec::new(), Vec::new());
     for draw in &frame.draws {
         let mesh = if let Some((entity, pose)) = &draw.pose {
             let id = skinned_mesh(state, device, *entity, &draw.mesh)?;
@@ -186,11 +191,14 @@ fn prepare_frame(
         let material = match state.materials.get(&material_key) {
             Some((_, id)) => *id,
             None => {
-                let desc = match &*draw.material {
-                    ResolvedMaterial::Measured(lut) => MaterialDesc::Measured { lut },
-                    &ResolvedMaterial::Lambert(albedo) => MaterialDesc::Lambert { albedo },
+                let desc = match &draw.material.model {
+                    ResolvedModel::Measured(lut) => MaterialDesc::Measured { lut },
+                    &ResolvedModel::Lambert(albedo) => MaterialDesc::Lambert { albedo },
                 };
                 let id = state.renderer.create_material(device, queue, &desc)?;
+                state
+                    .renderer
+                    .set_material_specular(queue, id, draw.material.specular)?;
                 state
                     .materials
                     .insert(material_key, (draw.material.clone(), id));
@@ -198,13 +206,35 @@ fn prepare_frame(
             }
         };
         used_materials.push(material_key);
-        draws.push(Draw::new(mesh, material, draw.world_from_model));
+        let mut cdrf_draw = Draw::new(mesh, material, draw.world_from_model);
+        if let Some(surface) = &draw.surface {
+            let key = Arc::as_ptr(surface) as usize;
+            let id = match state.surfaces.get(&key) {
+                Some((_, id)) => *id,
+                None => {
+                    let id = state
+                        .renderer
+                        .create_surface(device, queue, &surface.desc())?;
+                    state.surfaces.insert(key, (surface.clone(), id));
+                    id
+                }
+            };
+            used_surfaces.push(key);
+            cdrf_draw = cdrf_draw.with_surface(id);
+        }
+        draws.push(cdrf_draw);
     }
     // What no draw uses any more (a hot-reloaded asset's old version, a despawned mesh) goes.
     let renderer = &mut state.renderer;
     state.meshes.retain(|key, (_, id)| {
         used_meshes.contains(key) || {
             renderer.remove_mesh(*id);
+            false
+        }
+    });
+    state.surfaces.retain(|key, (_, id)| {
+        used_surfaces.contains(key) || {
+            renderer.remove_surface(*id);
             false
         }
     });
@@ -254,6 +284,7 @@ fn view_of(view: &ExtractedView) -> View {
 fn mesh_desc(prepared: &PreparedMesh) -> MeshDesc<'_> {
     MeshDesc::from_mesh(&prepared.mesh, &prepared.curvature_per_mm)
         .with_curvature_anisotropy(&prepared.anisotropy_per_mm)
+        .with_tangents(prepared.tangents.as_deref())
 }
 
 /// A skinned entity's deforming mesh, made anew when the entity's mesh asset changed.
