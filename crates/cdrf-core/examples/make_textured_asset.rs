@@ -20,7 +20,6 @@
 //! MikkTSpace tangents. Seam and pole vertices repeat their positions bit for bit (the welded
 //! mesh is closed). Metallic factors are 0 (cdrf materials are dielectric).
 
-use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::f32::consts::{PI, TAU};
 use std::io::Cursor;
@@ -28,8 +27,10 @@ use std::process::ExitCode;
 
 use cdrf_core::glam::{Vec2, Vec3};
 use gltf::json;
+use gltf_fixture::Builder;
 use json::validation::Checked::Valid;
-use json::validation::USize64;
+
+mod gltf_fixture;
 
 /// The checker texture's side and its squares' side, in pixels.
 const CHECKER_PX: u32 = 64;
@@ -166,65 +167,7 @@ fn png(side: u32, rgb: &[u8]) -> Vec<u8> {
     bytes
 }
 
-/// The binary chunk and the JSON that describes it.
-struct Builder {
-    root: json::Root,
-    bin: Vec<u8>,
-}
-
 impl Builder {
-    fn view(
-        &mut self,
-        bytes: &[u8],
-        target: Option<json::buffer::Target>,
-    ) -> json::Index<json::buffer::View> {
-        let offset = self.bin.len();
-        self.bin.extend_from_slice(bytes);
-        while !self.bin.len().is_multiple_of(4) {
-            self.bin.push(0);
-        }
-        self.root.push(json::buffer::View {
-            buffer: json::Index::new(0),
-            byte_length: USize64::from(bytes.len()),
-            byte_offset: Some(USize64::from(offset)),
-            byte_stride: None,
-            extensions: None,
-            extras: Default::default(),
-            name: None,
-            target: target.map(Valid),
-        })
-    }
-
-    fn accessor(
-        &mut self,
-        bytes: &[u8],
-        count: usize,
-        component_type: json::accessor::ComponentType,
-        type_: json::accessor::Type,
-        bounds: Option<(Vec3, Vec3)>,
-    ) -> json::Index<json::Accessor> {
-        let target = if component_type == json::accessor::ComponentType::U32 {
-            json::buffer::Target::ElementArrayBuffer
-        } else {
-            json::buffer::Target::ArrayBuffer
-        };
-        let view = self.view(bytes, Some(target));
-        self.root.push(json::Accessor {
-            buffer_view: Some(view),
-            byte_offset: None,
-            count: USize64::from(count),
-            component_type: Valid(json::accessor::GenericComponentType(component_type)),
-            extensions: None,
-            extras: Default::default(),
-            type_: Valid(type_),
-            min: bounds.map(|(min, _)| json::Value::from(min.to_array().to_vec())),
-            max: bounds.map(|(_, max)| json::Value::from(max.to_array().to_vec())),
-            name: None,
-            normalized: false,
-            sparse: None,
-        })
-    }
-
     fn primitive(
         &mut self,
         sphere: &Sphere,
@@ -333,18 +276,7 @@ fn material(
 }
 
 fn glb() -> Result<Vec<u8>, String> {
-    let mut builder = Builder {
-        root: json::Root::default(),
-        bin: Vec::new(),
-    };
-    builder.root.asset.generator = Some("cdrf-core example make_textured_asset".to_owned());
-    builder.root.push(json::Buffer {
-        byte_length: USize64(0), // set at the end
-        extensions: None,
-        extras: Default::default(),
-        name: None,
-        uri: None,
-    });
+    let mut builder = Builder::new("cdrf-core example make_textured_asset");
     builder.root.push(json::texture::Sampler {
         mag_filter: Some(Valid(json::texture::MagFilter::Linear)),
         min_filter: Some(Valid(json::texture::MinFilter::LinearMipmapLinear)),
@@ -370,8 +302,7 @@ fn glb() -> Result<Vec<u8>, String> {
         &uv_sphere(Vec3::new(55.0, 0.0, 0.0), 15.0, 32, 16),
         tinted_material,
     );
-    let Builder { mut root, bin } = builder;
-    root.buffers[0].byte_length = USize64::from(bin.len());
+    let root = &mut builder.root;
     let mesh = root.push(json::Mesh {
         extensions: None,
         extras: Default::default(),
@@ -391,40 +322,9 @@ fn glb() -> Result<Vec<u8>, String> {
         nodes: vec![node],
     });
     root.scene = Some(scene);
-    let json_bytes = root
-        .to_vec()
-        .map_err(|e| format!("encoding the JSON: {e}"))?;
-    let length = 12 + 8 + json_bytes.len().next_multiple_of(4) + 8 + bin.len();
-    let glb = gltf::binary::Glb {
-        header: gltf::binary::Header {
-            magic: *b"glTF",
-            version: 2,
-            length: u32::try_from(length).map_err(|_| "GLB over 4 GiB".to_owned())?,
-        },
-        json: Cow::Owned(json_bytes),
-        bin: Some(Cow::Owned(bin)),
-    };
-    glb.to_vec().map_err(|e| format!("assembling the GLB: {e}"))
+    builder.glb()
 }
 
 fn main() -> ExitCode {
-    let mut args = std::env::args().skip(1);
-    let (Some(out), None) = (args.next(), args.next()) else {
-        eprintln!("usage: make_textured_asset OUT.glb");
-        return ExitCode::FAILURE;
-    };
-    let result = glb().and_then(|bytes| {
-        std::fs::write(&out, &bytes).map_err(|e| format!("{out}: cannot write: {e}"))?;
-        Ok(bytes.len())
-    });
-    match result {
-        Ok(bytes) => {
-            println!("{out}: {bytes} bytes");
-            ExitCode::SUCCESS
-        }
-        Err(error) => {
-            eprintln!("make_textured_asset: {error}");
-            ExitCode::FAILURE
-        }
-    }
+    gltf_fixture::write_out("make_textured_asset", glb())
 }

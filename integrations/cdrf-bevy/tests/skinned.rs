@@ -1,96 +1,56 @@
-//! Skinned meshes: a tube (80 × 14 mm) with two joints, the second turned 60° about the first
-//! away from the camera, shaded by Bevy (`StandardMaterial`: its own GPU skinning) and by the
-//! plugin (a CDRF Lambert material: its CPU skinning into cdrf-render's deforming mesh). The two
-//! must cover the same pixels and shade them alike; the tube unbent covers others.
+//! Skinned meshes from a glTF file: `tests/fixtures/skinned_tube.glb` (a tube 80 × 14 mm,
+//! two joints `root` and `bend`) loaded by Bevy's glTF loader, `bend` turned 60° about the
+//! first joint away from the camera, shaded by Bevy (its `StandardMaterial`: Bevy's GPU
+//! skinning) and by the plugin (a `CdrfOverride` in Lambert: its CPU skinning into
+//! cdrf-render's deforming mesh). The two must cover the same pixels and shade them alike; the
+//! tube unbent covers others.
 //!
 //! The light comes from the camera, so Bevy's diffuse is Lambert's: Burley's retro-reflection
-//! factor is 1 where L = V at perceptual roughness 0.5, and reflectance 0 leaves no specular.
-//! The turn tilts the tube's right half away from the light: normals skinned wrong would shade
-//! it as if it faced the camera.
+//! factor is 1 where L = V at perceptual roughness 0.5 (the file's), and the test sets the
+//! `StandardMaterial`'s reflectance to 0, leaving no specular. The turn tilts the tube's right
+//! half away from the light: normals skinned wrong would shade it as if it faced the camera.
 
 mod common;
 
 use bevy::camera::ScalingMode;
-use bevy::camera::visibility::NoFrustumCulling;
-use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
+use bevy::gltf::GltfAssetLabel;
 use bevy::prelude::*;
-use cdrf_bevy::{CdrfMaterial, CdrfMaterial3d, CdrfSettings, mesh_from_cdrf};
+use bevy::world_serialization::WorldAssetRoot;
+use cdrf_bevy::{CdrfMaterial, CdrfOverride, CdrfSettings};
 use cdrf_core::light::NonLocal;
 
 const SIZE: u32 = 128;
-/// The tube's semi-axes, m.
-const SEMI_M: [f32; 3] = [0.04, 0.007, 0.007];
 /// The second joint's turn, degrees.
 const TURN_DEG: f32 = 60.0;
 
-/// The tube along x with joint 0 on its left half and joint 1 on its right, blended over the
-/// middle 20 mm.
-fn skinned_tube() -> Mesh {
-    let mut tube = cdrf_core::Mesh::icosphere(1.0, 4);
-    let semi = cdrf_core::glam::Vec3::from_array(SEMI_M);
-    for (p, n) in tube.positions.iter_mut().zip(&mut tube.normals) {
-        let u = *p;
-        *p = u * semi;
-        *n = (u / semi).normalize();
-    }
-    let weights: Vec<[f32; 4]> = tube
-        .positions
-        .iter()
-        .map(|p| {
-            let t = ((p.x + 0.01) / 0.02).clamp(0.0, 1.0);
-            let right = t * t * (3.0 - 2.0 * t);
-            [1.0 - right, right, 0.0, 0.0]
-        })
-        .collect();
-    let joints = vec![[0u16, 1, 0, 0]; weights.len()];
-    mesh_from_cdrf(&tube, bevy::asset::RenderAssetUsages::default())
-        .with_inserted_attribute(
-            Mesh::ATTRIBUTE_JOINT_INDEX,
-            bevy::mesh::VertexAttributeValues::Uint16x4(joints),
-        )
-        .with_inserted_attribute(Mesh::ATTRIBUTE_JOINT_WEIGHT, weights)
-}
-
-/// Renders the tube, bent by `turn_deg`, with Bevy's shading (`cdrf: false`) or the
+/// Renders the tube, `bend` turned by `turn_deg`, with Bevy's shading (`cdrf: false`) or the
 /// plugin's; linear RGB per pixel.
 fn render(cdrf: bool, turn_deg: f32) -> Vec<[f32; 3]> {
-    let mut app = common::headless_app(CdrfSettings {
-        non_local: NonLocal::OFF,
-        ..default()
-    });
+    let mut app = App::new();
+    app.add_plugins((
+        common::headless_plugins().set(AssetPlugin {
+            file_path: concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/fixtures").into(),
+            ..default()
+        }),
+        cdrf_bevy::CdrfPlugin {
+            settings: CdrfSettings {
+                non_local: NonLocal::OFF,
+                ..default()
+            },
+        },
+    ))
+    .insert_resource(GlobalAmbientLight::NONE);
     let target = common::float_target(&mut app, SIZE, SIZE);
     let world = app.world_mut();
-    let mesh = world.resource_mut::<Assets<Mesh>>().add(skinned_tube());
-    let inverse_bindposes = world
-        .resource_mut::<Assets<SkinnedMeshInverseBindposes>>()
-        .add(SkinnedMeshInverseBindposes::from(vec![Mat4::IDENTITY; 2]));
-    let root = world.spawn(Transform::IDENTITY).id();
-    let bend = world
-        .spawn((
-            Transform::from_rotation(Quat::from_rotation_y(turn_deg.to_radians())),
-            ChildOf(root),
-        ))
-        .id();
-    let skin = SkinnedMesh {
-        inverse_bindposes,
-        joints: vec![root, bend],
-    };
-    let tube = world.spawn((Mesh3d(mesh), skin, NoFrustumCulling)).id();
+    let scene = world
+        .resource::<AssetServer>()
+        .load(GltfAssetLabel::Scene(0).from_asset("skinned_tube.glb"));
+    let root = world.spawn(WorldAssetRoot(scene)).id();
     if cdrf {
         let white = world
             .resource_mut::<Assets<CdrfMaterial>>()
             .add(CdrfMaterial::lambert([1.0; 3]));
-        world.entity_mut(tube).insert(CdrfMaterial3d(white));
-    } else {
-        let white = world
-            .resource_mut::<Assets<StandardMaterial>>()
-            .add(StandardMaterial {
-                base_color: Color::WHITE,
-                perceptual_roughness: 0.5,
-                reflectance: 0.0,
-                ..default()
-            });
-        world.entity_mut(tube).insert(MeshMaterial3d(white));
+        world.entity_mut(root).insert(CdrfOverride(white));
     }
     world.spawn((
         DirectionalLight {
@@ -111,6 +71,35 @@ fn render(cdrf: bool, turn_deg: f32) -> Vec<[f32; 3]> {
         }),
         Transform::from_xyz(0.0, 0.0, 0.5).looking_at(Vec3::ZERO, Vec3::Y),
     ));
+    // The file loads and the scene spawns over some frames: then turn the joint.
+    common::finish_plugins(&mut app);
+    let mut frames = 0;
+    let bend = loop {
+        app.update();
+        let world = app.world_mut();
+        let bend = world
+            .query::<(Entity, &Name)>()
+            .iter(world)
+            .find_map(|(entity, name)| (name.as_str() == "bend").then_some(entity));
+        let handed_over = world
+            .query::<&cdrf_bevy::CdrfMaterial3d>()
+            .iter(world)
+            .count();
+        if let Some(bend) = bend
+            && (handed_over == 1) == cdrf
+        {
+            break bend;
+        }
+        assert!(frames < 600, "the glTF scene did not spawn");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+        frames += 1;
+    };
+    let world = app.world_mut();
+    world.get_mut::<Transform>(bend).expect("a joint").rotation =
+        Quat::from_rotation_y(turn_deg.to_radians());
+    for (_, material) in world.resource_mut::<Assets<StandardMaterial>>().iter_mut() {
+        material.reflectance = 0.0;
+    }
     let image = common::capture(app, target);
     (0..SIZE * SIZE)
         .map(|i| common::linear_rgb(&image, i % SIZE, i / SIZE))
