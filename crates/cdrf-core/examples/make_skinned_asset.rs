@@ -40,10 +40,12 @@ fn glb() -> Result<Vec<u8>, String> {
     };
     let count = tube.positions.len();
     let mut builder = Builder::new("cdrf-core example make_skinned_asset");
-    let (min, max) = tube.positions.iter().fold(
-        (Vec3::INFINITY, Vec3::NEG_INFINITY),
-        |(lo, hi), &p| (lo.min(p), hi.max(p)),
-    );
+    let (min, max) = tube
+        .positions
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
     let bytes = floats(&mut tube.positions.iter().flat_map(|p| p.to_array()));
     let positions = builder.accessor(
         &bytes,
