@@ -20,17 +20,24 @@
 //!
 //! # How it works
 //! The plugin drives cdrf-render's [`Renderer`](cdrf_render::Renderer) on Bevy's device: one
-//! renderer per 3D camera, prepared in `RenderSystems::Prepare` and recorded in the camera's
-//! `Core3d` schedule right after Bevy's opaque pass, into the camera's main (HDR) texture with
-//! its MSAA and its reversed-Z depth buffer. So CDRF meshes and Bevy's meshes hide each other,
-//! and Bevy's transparent pass, tonemapping, exposure and bloom apply to them as to any mesh.
-//! The pixels are the ones cdrf's own viewer renders, non-local terms included; CDRF meshes
-//! are not shadowed by Bevy's shadow maps (their own cast shadows are translucent, with a
-//! penumbra as wide as the material's scattering length) and do not cast shadows onto Bevy's
-//! meshes.
+//! renderer per kind of target (format, MSAA) the 3D cameras render into, prepared once a frame
+//! in `RenderSystems::Prepare` and recorded in each camera's `Core3d` schedule right after
+//! Bevy's opaque pass, from that camera's view, into its main (HDR) texture with its MSAA and
+//! its reversed-Z depth buffer. So CDRF meshes and Bevy's meshes hide each other, and Bevy's
+//! transparent pass, tonemapping, exposure and bloom apply to them as to any mesh. The pixels
+//! are the ones cdrf's own viewer renders, non-local terms included; CDRF meshes are not
+//! shadowed by Bevy's shadow maps (their own cast shadows are translucent, with a penumbra as
+//! wide as the material's scattering length) and do not cast shadows onto Bevy's meshes.
 //!
-//! Units: see [`units`]. Curvature is computed once per mesh asset (and material diffusion
-//! length) when it is first drawn, in model units × [`CdrfSettings::mm_per_unit`].
+//! - Lights: Bevy's directional, point and spot lights, its `GlobalAmbientLight` and a camera's
+//!   `EnvironmentMapLight` (its diffuse map as the sky's spherical harmonics); units in
+//!   [`units`].
+//! - Meshes: curvature is computed once per mesh asset (and material diffusion length) when it
+//!   is first drawn, in model units × [`CdrfSettings::mm_per_unit`]. Skinned meshes
+//!   (`SkinnedMesh`, e.g. a glTF character) are skinned on the CPU each frame with the rest
+//!   pose's curvature.
+//! - glTF scenes: [`CdrfOverride`] draws a scene's meshes in a CDRF material painted with their
+//!   `StandardMaterial`'s base colour, normal map and roughness ([`CdrfSurface`]).
 
 mod assets;
 mod environment;
