@@ -1,19 +1,19 @@
 //! Several views of one prepared frame (`Renderer::add_view` / `render_view`) on a software
 //! adapter (lavapipe): split screen, several cameras or a probe's faces without a second
 //! renderer. Each view gives the pixels a frame prepared for that camera alone gives, every
-//! non-local term on; views past the buffer's first room, a bad view and a view before any
+//! non-local term on, on two wax bodies that light each other; views past the buffer's first room, a bad view and a view before any
 //! frame are handled.
 
 use cdrf_core::glam::{self, Mat4, Vec3};
 use cdrf_core::image_file::RgbaImage;
 use cdrf_core::light::NonLocal;
-use cdrf_core::{CurvatureOptions, Mesh, curvature_per_mm, read_lut};
+use cdrf_core::{Mesh, read_lut};
 use cdrf_render::offscreen::OffscreenTarget;
 use cdrf_render::{
     DirectionalLight, Draw, FrameDesc, MaterialDesc, MeshDesc, Options, PrepareError, Renderer,
     ToCamera, View,
 };
-use cdrf_tests::{data_dir, draw_and_read, headless_target, software_device};
+use cdrf_tests::{data_dir, draw_and_read, headless_target, merged, software_device};
 
 const SIZE: u32 = 128;
 
@@ -32,8 +32,8 @@ fn camera(direction: Vec3) -> View {
     }
 }
 
-/// Cameras around a wax ellipsoid (60 × 40 × 36 mm): front, side, above, behind, below, and
-/// front again with twice the exposure.
+/// Cameras around the two bodies: front, side, above, behind, below, and front again with
+/// twice the exposure.
 fn cameras() -> Vec<(View, f32)> {
     [
         (Vec3::Z, 1.0),
@@ -52,13 +52,26 @@ fn cameras() -> Vec<(View, f32)> {
 fn every_view_of_one_frame_renders_as_a_frame_of_its_own() {
     let device = software_device();
     let (gpu, queue) = (&device.device, &device.queue);
-    let mut mesh = Mesh::icosphere(1.0, 4);
-    for p in &mut mesh.positions {
-        *p *= Vec3::new(30.0, 20.0, 18.0);
-    }
-    mesh.compute_normals();
-    let curvature = curvature_per_mm(&mesh, &CurvatureOptions::new(1.0))
-        .unwrap_or_else(|error| panic!("{error}"));
+    // Two bodies facing each other, so the inter-reflection (whose view correction is the
+    // view's) is not zero.
+    let ellipsoid = |semi: Vec3| {
+        let mut mesh = Mesh::icosphere(1.0, 4);
+        for p in &mut mesh.positions {
+            *p *= semi;
+        }
+        mesh.compute_normals();
+        mesh
+    };
+    let (mesh, curvature) = merged(&[
+        (
+            ellipsoid(Vec3::new(20.0, 20.0, 18.0)),
+            Vec3::new(-12.0, 0.0, 0.0),
+        ),
+        (
+            ellipsoid(Vec3::new(8.0, 14.0, 14.0)),
+            Vec3::new(22.0, 0.0, 0.0),
+        ),
+    ]);
     let lut =
         read_lut(data_dir().join("wax-fit/measured.exr")).unwrap_or_else(|error| panic!("{error}"));
     let target_desc = headless_target();

@@ -53,7 +53,7 @@ fn gathered_light(receiver: Receiver, skip: u32) -> vec3<f32> {
         let from_emitter = receiver.position_mm - (*e).position_mm;
         let height = dot((*e).normal, from_emitter) - (*e).sagitta_mm;
         let area_mm2 = (*e).area_mm2;
-        if k == skip || height <= 0.0 || !(area_mm2 > 0.0) {
+        if k == skip || !(height > 0.0) || !(area_mm2 > 0.0) {
             continue;
         }
         let d2 = dot(from_emitter, from_emitter);

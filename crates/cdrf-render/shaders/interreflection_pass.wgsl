@@ -38,7 +38,10 @@ fn cs_patch_emitters(
         centroid += member.weight * v.world_position;
         summed_normal += member.weight * v.normal;
     }
-    let normal = normalize(summed_normal);
+    // A patch whose normals cancel (a deformed mesh folded onto itself) sends out nothing.
+    let normal_length = length(summed_normal);
+    let placed = normal_length > 1e-12;
+    let normal = select(vec3<f32>(0.0, 0.0, 1.0), summed_normal / normal_length, placed);
     var sagitta = 0.0;
     for (var m = 0u; m < surface_patch.member_count; m++) {
         let member = patch_members[surface_patch.first_member + m];
@@ -49,7 +52,7 @@ fn cs_patch_emitters(
     var e: Emitter;
     e.position_mm = centroid * frame.mm_per_world_unit;
     e.normal = normal;
-    e.area_mm2 = surface_patch.area * mm_per_model_unit * mm_per_model_unit;
+    e.area_mm2 = select(0.0, surface_patch.area * mm_per_model_unit * mm_per_model_unit, placed);
     e.sagitta_mm = sagitta * frame.mm_per_world_unit;
     e.curvature_per_mm = surface_patch.curvature_per_mm * draw.curvature_scale;
     e.direct = direct;
@@ -92,12 +95,7 @@ fn cs_vertex_interreflection(
         v.normal,
         v.curvature_per_mm,
     );
-    var light = gathered_light(receiver, arrayLength(&emitters));
-    if MODEL != MODEL_LAMBERT {
-        // Light from everywhere: the view correction of light along the normal (as the
-        // environment light's).
-        let phi = angle(dot(v.normal, to_camera_from(v.world_position)));
-        light *= view_value(v.curvature_per_mm, 0.0, phi);
-    }
+    // Before the view correction, which the shading pass applies per view.
+    let light = gathered_light(receiver, arrayLength(&emitters));
     terms_out[i].radiance += vec4<f32>(FRAC_1_PI * light, 0.0);
 }

@@ -73,7 +73,14 @@ fn vs_main_terms(vertex: VertexIn, terms: VertexTermsIn) -> VertexOut {
     out.through_2 = terms.through_2.xyz;
     out.visibility_3 = terms.visibility_3.xyz;
     out.through_3 = terms.through_3.xyz;
-    out.vertex_radiance += terms.radiance.xyz;
+    var inter_reflected = terms.radiance.xyz;
+    if MODEL != MODEL_LAMBERT {
+        // Light from everywhere: the view correction of light along the normal (as the
+        // environment light's), for this view's camera.
+        let phi = angle(dot(normalize(out.world_normal), to_camera_from(out.world_position)));
+        inter_reflected *= view_value(out.curvature_per_mm, 0.0, phi);
+    }
+    out.vertex_radiance += inter_reflected;
     return out;
 }
 

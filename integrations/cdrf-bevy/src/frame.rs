@@ -42,8 +42,8 @@ pub(crate) struct FrameDraw {
     pub mesh: Arc<PreparedMesh>,
     pub material: Arc<ResolvedMaterial>,
     pub world_from_model: glam::Mat4,
-    /// A skinned entity's vertices this frame (world units; the transform is then the
-    /// identity), and the entity, whose own deforming copy of the mesh they move.
+    /// A skinned entity's vertices this frame (world units / the skin's scale; the transform is
+    /// then that scale), and the entity, whose own deforming copy of the mesh they move.
     pub pose: Option<(Entity, Arc<Pose>)>,
     /// What it is painted with ([`CdrfSurface`]).
     pub surface: Option<Arc<PreparedSurface>>,
@@ -189,8 +189,8 @@ pub(crate) fn gather_frame(
                 .ok()
         });
         frame.draws.push(FrameDraw {
-            world_from_model: if pose.is_some() {
-                glam::Mat4::IDENTITY
+            world_from_model: if let Some(pose) = &pose {
+                glam::Mat4::from_scale(glam::Vec3::splat(pose.scale))
             } else {
                 to_glam_mat4(transform.to_matrix())
             },
@@ -307,13 +307,13 @@ fn pose(
 ) -> Result<Pose, skinning::SkinError> {
     let weights = mesh.skin.as_ref().ok_or(skinning::SkinError::Weights)?;
     let matrices = skinning::joint_matrices(skin, bindposes, transforms)?;
-    skinning::skin(
-        &mesh.mesh.positions,
-        &mesh.mesh.normals,
-        &mesh.anisotropy_per_mm,
-        weights,
-        &matrices,
-    )
+    let rest = skinning::RestPose {
+        positions: &mesh.mesh.positions,
+        normals: &mesh.mesh.normals,
+        tangents: mesh.tangents.as_deref(),
+        anisotropy_per_mm: &mesh.anisotropy_per_mm,
+    };
+    skinning::skin(&rest, weights, &matrices)
 }
 
 /// A `StandardMaterial`'s surface: `None` while it loads, `Some(None)` when it cannot paint.

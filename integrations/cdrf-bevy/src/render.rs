@@ -4,7 +4,7 @@
 //! the camera's own view.
 
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use bevy::core_pipeline::Core3d;
 use bevy::ecs::schedule::ScheduleLabel;
@@ -19,7 +19,7 @@ use cdrf_render::{
 };
 
 use crate::assets::{ResolvedMaterial, ResolvedModel};
-use crate::frame::{CdrfFrame, PreparedMesh, to_glam_mat4, to_glam_vec3};
+use crate::frame::{CdrfFrame, FrameDraw, PreparedMesh, to_glam_mat4, to_glam_vec3};
 use crate::surface::PreparedSurface;
 
 /// Bevy's main-pass depth format (`CORE_3D_DEPTH_FORMAT`), reversed Z.
@@ -44,9 +44,6 @@ struct TargetRenderer {
     surfaces: HashMap<usize, (Arc<PreparedSurface>, SurfaceId)>,
     /// Skinned entities' own deforming meshes, by the main-world entity.
     skinned: HashMap<Entity, (Arc<PreparedMesh>, MeshId)>,
-    /// The commands `prepare` returned (light maps, vertex terms), submitted before the first
-    /// pass that draws with this renderer.
-    commands: Mutex<Vec<wgpu::CommandBuffer>>,
     /// Whether this frame's `prepare` succeeded (else the pass draws nothing).
     prepared: bool,
 }
@@ -97,7 +94,6 @@ pub(crate) fn prepare_views(
                 materials: HashMap::new(),
                 surfaces: HashMap::new(),
                 skinned: HashMap::new(),
-                commands: Mutex::new(Vec::new()),
                 prepared: false,
             }
         });
@@ -120,7 +116,8 @@ pub(crate) fn prepare_views(
             state.prepared = false;
             match prepare_frame(state, device, queue, &frame, view, camera) {
                 Ok(commands) => {
-                    *state.commands.lock().expect("not poisoned") = commands;
+                    // Submitted now, ahead of every camera's pass this frame.
+                    queue.submit(commands);
                     state.prepared = true;
                 }
                 Err(error) => {
@@ -150,6 +147,87 @@ enum ViewError {
     Prepare(#[from] cdrf_render::PrepareError),
 }
 
+/// What the frame's draws use, by key (the rest is removed).
+#[derive(Default)]
+struct Used {
+    meshes: Vec<usize>,
+    materials: Vec<usize>,
+    skinned: Vec<Entity>,
+    surfaces: Vec<usize>,
+}
+
+/// Uploads what a draw needs that the renderer does not hold yet (moving a skinned mesh).
+fn upload_draw(
+    state: &mut TargetRenderer,
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    draw: &FrameDraw,
+    used: &mut Used,
+) -> Result<Draw, ViewError> {
+    let mesh = if let Some((entity, pose)) = &draw.pose {
+        let id = skinned_mesh(state, device, *entity, &draw.mesh)?;
+        state.renderer.update_mesh(
+            queue,
+            id,
+            &MeshVertices {
+                tangents: pose.tangents.as_deref(),
+                curvature_anisotropy_per_mm: Some(&pose.anisotropy_per_mm),
+                ..MeshVertices::new(&pose.positions, &pose.normals)
+            },
+        )?;
+        used.skinned.push(*entity);
+        id
+    } else {
+        let mesh_key = Arc::as_ptr(&draw.mesh) as usize;
+        used.meshes.push(mesh_key);
+        match state.meshes.get(&mesh_key) {
+            Some((_, id)) => *id,
+            None => {
+                let prepared = &draw.mesh;
+                let id = state.renderer.create_mesh(device, &mesh_desc(prepared))?;
+                state.meshes.insert(mesh_key, (prepared.clone(), id));
+                id
+            }
+        }
+    };
+    let material_key = Arc::as_ptr(&draw.material) as usize;
+    let material = match state.materials.get(&material_key) {
+        Some((_, id)) => *id,
+        None => {
+            let desc = match &draw.material.model {
+                ResolvedModel::Measured(lut) => MaterialDesc::Measured { lut },
+                &ResolvedModel::Lambert(albedo) => MaterialDesc::Lambert { albedo },
+            };
+            let id = state.renderer.create_material(device, queue, &desc)?;
+            state
+                .renderer
+                .set_material_specular(queue, id, draw.material.specular)?;
+            state
+                .materials
+                .insert(material_key, (draw.material.clone(), id));
+            id
+        }
+    };
+    used.materials.push(material_key);
+    let mut cdrf_draw = Draw::new(mesh, material, draw.world_from_model);
+    if let Some(surface) = &draw.surface {
+        let key = Arc::as_ptr(surface) as usize;
+        let id = match state.surfaces.get(&key) {
+            Some((_, id)) => *id,
+            None => {
+                let id = state
+                    .renderer
+                    .create_surface(device, queue, &surface.desc())?;
+                state.surfaces.insert(key, (surface.clone(), id));
+                id
+            }
+        };
+        used.surfaces.push(key);
+        cdrf_draw = cdrf_draw.with_surface(id);
+    }
+    Ok(cdrf_draw)
+}
+
 fn prepare_frame(
     state: &mut TargetRenderer,
     device: &wgpu::Device,
@@ -159,71 +237,20 @@ fn prepare_frame(
     camera: &ExtractedCamera,
 ) -> Result<Vec<wgpu::CommandBuffer>, ViewError> {
     let mut draws = Vec::with_capacity(frame.draws.len());
-    let (mut used_meshes, mut used_materials) = (Vec::new(), Vec::new());
-    let (mut used_skinned, mut used_surfaces) = (Vec::new(), Vec::new());
+    let mut used = Used::default();
     for draw in &frame.draws {
-        let mesh = if let Some((entity, pose)) = &draw.pose {
-            let id = skinned_mesh(state, device, *entity, &draw.mesh)?;
-            state.renderer.update_mesh(
-                queue,
-                id,
-                &MeshVertices {
-                    curvature_anisotropy_per_mm: Some(&pose.anisotropy_per_mm),
-                    ..MeshVertices::new(&pose.positions, &pose.normals)
-                },
-            )?;
-            used_skinned.push(*entity);
-            id
-        } else {
-            let mesh_key = Arc::as_ptr(&draw.mesh) as usize;
-            used_meshes.push(mesh_key);
-            match state.meshes.get(&mesh_key) {
-                Some((_, id)) => *id,
-                None => {
-                    let prepared = &draw.mesh;
-                    let id = state.renderer.create_mesh(device, &mesh_desc(prepared))?;
-                    state.meshes.insert(mesh_key, (prepared.clone(), id));
-                    id
-                }
-            }
-        };
-        let material_key = Arc::as_ptr(&draw.material) as usize;
-        let material = match state.materials.get(&material_key) {
-            Some((_, id)) => *id,
-            None => {
-                let desc = match &draw.material.model {
-                    ResolvedModel::Measured(lut) => MaterialDesc::Measured { lut },
-                    &ResolvedModel::Lambert(albedo) => MaterialDesc::Lambert { albedo },
-                };
-                let id = state.renderer.create_material(device, queue, &desc)?;
-                state
-                    .renderer
-                    .set_material_specular(queue, id, draw.material.specular)?;
-                state
-                    .materials
-                    .insert(material_key, (draw.material.clone(), id));
-                id
-            }
-        };
-        used_materials.push(material_key);
-        let mut cdrf_draw = Draw::new(mesh, material, draw.world_from_model);
-        if let Some(surface) = &draw.surface {
-            let key = Arc::as_ptr(surface) as usize;
-            let id = match state.surfaces.get(&key) {
-                Some((_, id)) => *id,
-                None => {
-                    let id = state
-                        .renderer
-                        .create_surface(device, queue, &surface.desc())?;
-                    state.surfaces.insert(key, (surface.clone(), id));
-                    id
-                }
-            };
-            used_surfaces.push(key);
-            cdrf_draw = cdrf_draw.with_surface(id);
+        // A draw that cannot be uploaded is left out; the others are drawn.
+        match upload_draw(state, device, queue, draw, &mut used) {
+            Ok(draw) => draws.push(draw),
+            Err(error) => warn_once!("cdrf: a CDRF mesh is not drawn: {error}"),
         }
-        draws.push(cdrf_draw);
     }
+    let Used {
+        meshes: used_meshes,
+        materials: used_materials,
+        skinned: used_skinned,
+        surfaces: used_surfaces,
+    } = used;
     // What no draw uses any more (a hot-reloaded asset's old version, a despawned mesh) goes.
     let renderer = &mut state.renderer;
     state.meshes.retain(|key, (_, id)| {
@@ -320,9 +347,6 @@ pub(crate) fn cdrf_main_pass_3d(
         return;
     };
     let (camera, target, depth) = view.into_inner();
-    for commands in state.commands.lock().expect("not poisoned").drain(..) {
-        ctx.add_command_buffer(commands);
-    }
     let mut pass = ctx
         .command_encoder()
         .begin_render_pass(&wgpu::RenderPassDescriptor {

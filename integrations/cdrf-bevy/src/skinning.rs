@@ -45,13 +45,19 @@ impl SkinWeights {
     }
 }
 
-/// A skinned mesh's vertices this frame, world units.
+/// A skinned mesh's vertices this frame: world positions divided by the skin's `scale`, so
+/// that a draw scaled by it gives the rest pose's curvature its world size (an armature
+/// exported at 0.01 shrinks its mesh's curvature radii too).
 #[derive(Debug)]
 pub struct Pose {
-    /// Positions.
+    /// The skin's uniform scale: the cube root of the first joint matrix's determinant.
+    pub scale: f32,
+    /// Positions, world units / `scale`.
     pub positions: Vec<glam::Vec3>,
     /// Unit normals (the skin matrix's inverse transpose, as Bevy's `skin_normals`).
     pub normals: Vec<glam::Vec3>,
+    /// Tangents turned with the skin (w kept), where the mesh has them.
+    pub tangents: Option<Vec<glam::Vec4>>,
     /// The rest pose's curvature anisotropy turned with the skin, mm⁻¹.
     pub anisotropy_per_mm: Vec<glam::Vec3>,
 }
@@ -94,11 +100,18 @@ pub(crate) fn joint_matrices(
         .collect()
 }
 
+/// The rest pose a skin moves: positions and normals, and where the mesh has them tangents, and
+/// the curvature's anisotropy.
+pub(crate) struct RestPose<'a> {
+    pub positions: &'a [glam::Vec3],
+    pub normals: &'a [glam::Vec3],
+    pub tangents: Option<&'a [glam::Vec4]>,
+    pub anisotropy_per_mm: &'a [glam::Vec3],
+}
+
 /// Skins the rest pose: each vertex by the weighted sum of its joints' matrices.
 pub(crate) fn skin(
-    rest_positions: &[glam::Vec3],
-    rest_normals: &[glam::Vec3],
-    rest_anisotropy_per_mm: &[glam::Vec3],
+    rest: &RestPose<'_>,
     weights: &SkinWeights,
     joint_matrices: &[glam::Mat4],
 ) -> Result<Pose, SkinError> {
@@ -111,10 +124,17 @@ pub(crate) fn skin(
             joints: joint_matrices.len(),
         });
     }
-    let count = rest_positions.len();
+    let count = rest.positions.len();
+    let scale = joint_matrices
+        .first()
+        .map(|m| glam::Mat3::from_mat4(*m).determinant().abs().cbrt())
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .unwrap_or(1.0);
     let mut pose = Pose {
+        scale,
         positions: Vec::with_capacity(count),
         normals: Vec::with_capacity(count),
+        tangents: rest.tangents.map(|_| Vec::with_capacity(count)),
         anisotropy_per_mm: Vec::with_capacity(count),
     };
     for i in 0..count {
@@ -127,13 +147,20 @@ pub(crate) fn skin(
         }
         let linear = glam::Mat3::from_mat4(matrix);
         pose.positions
-            .push(matrix.transform_point3(rest_positions[i]));
+            .push(matrix.transform_point3(rest.positions[i]) / scale);
         pose.normals.push(
-            (linear.inverse().transpose() * rest_normals[i])
+            (linear.inverse().transpose() * rest.normals[i])
                 .try_normalize()
-                .unwrap_or(rest_normals[i]),
+                .unwrap_or(rest.normals[i]),
         );
-        let a = rest_anisotropy_per_mm.get(i).copied().unwrap_or_default();
+        if let (Some(out), Some(tangents)) = (&mut pose.tangents, rest.tangents) {
+            let t = tangents[i];
+            let turned = (linear * t.truncate())
+                .try_normalize()
+                .unwrap_or(t.truncate());
+            out.push(turned.extend(t.w));
+        }
+        let a = rest.anisotropy_per_mm.get(i).copied().unwrap_or_default();
         pose.anisotropy_per_mm
             .push((linear * a).normalize_or_zero() * a.length());
     }
@@ -155,10 +182,14 @@ mod tests {
     fn a_half_weight_blends_two_joints_and_turns_the_frame() {
         let turn = glam::Mat4::from_rotation_z(std::f32::consts::FRAC_PI_2);
         let matrices = [glam::Mat4::IDENTITY, turn];
+        let rest = RestPose {
+            positions: &[glam::Vec3::X],
+            normals: &[glam::Vec3::X],
+            tangents: Some(&[glam::Vec4::new(0.0, 1.0, 0.0, -1.0)]),
+            anisotropy_per_mm: &[glam::Vec3::X * 0.1],
+        };
         let pose = skin(
-            &[glam::Vec3::X],
-            &[glam::Vec3::X],
-            &[glam::Vec3::X * 0.1],
+            &rest,
             &one_vertex([0, 1, 0, 0], [0.5, 0.5, 0.0, 0.0]),
             &matrices,
         )
@@ -168,14 +199,38 @@ mod tests {
         let diagonal = glam::Vec3::new(1.0, 1.0, 0.0).normalize();
         assert!(pose.normals[0].abs_diff_eq(diagonal, 1e-6));
         assert!(pose.anisotropy_per_mm[0].abs_diff_eq(diagonal * 0.1, 1e-6));
+        let tangent = pose.tangents.expect("tangents")[0];
+        let turned = glam::Vec3::new(-1.0, 1.0, 0.0).normalize();
+        assert!(tangent.abs_diff_eq(turned.extend(-1.0), 1e-6), "{tangent}");
+        assert_eq!(pose.scale, 1.0);
+    }
+
+    #[test]
+    fn a_scaled_armature_scales_the_draw_not_the_positions() {
+        let matrices = [glam::Mat4::from_scale(glam::Vec3::splat(0.01))];
+        let rest = RestPose {
+            positions: &[glam::Vec3::new(30.0, 0.0, 0.0)],
+            normals: &[glam::Vec3::X],
+            tangents: None,
+            anisotropy_per_mm: &[],
+        };
+        let pose =
+            skin(&rest, &one_vertex([0; 4], [1.0, 0.0, 0.0, 0.0]), &matrices).expect("skins");
+        assert!((pose.scale - 0.01).abs() < 1e-7);
+        // World position 0.3 = scale × 30: the rest pose's units, drawn scaled by 0.01.
+        assert!(pose.positions[0].abs_diff_eq(glam::Vec3::new(30.0, 0.0, 0.0), 1e-4));
     }
 
     #[test]
     fn a_joint_the_skin_lacks_is_refused() {
+        let rest = RestPose {
+            positions: &[glam::Vec3::X],
+            normals: &[glam::Vec3::X],
+            tangents: None,
+            anisotropy_per_mm: &[],
+        };
         let error = skin(
-            &[glam::Vec3::X],
-            &[glam::Vec3::X],
-            &[],
+            &rest,
             &one_vertex([0, 3, 0, 0], [0.5, 0.5, 0.0, 0.0]),
             &[glam::Mat4::IDENTITY; 2],
         )

@@ -1,8 +1,9 @@
 //! Bevy's `EnvironmentMapLight` lights CDRF meshes: a camera's diffuse cubemap holding a
 //! smooth sky W(N) (brighter above, toward +x and toward +z), no other light. A white sphere
 //! shaded by the plugin's Lambert must return W at each normal (a diffuse map holds E/π), and
-//! Bevy's own `StandardMaterial` sphere under the same map must show the same pattern (their
-//! ratio the same everywhere): the map is read in Bevy's orientation.
+//! Bevy's own `StandardMaterial` sphere under the same map must give the same values within
+//! 1 % at each: the map is read in Bevy's orientation and scale. (The test writes the cubemap
+//! in wgpu's face convention, as the plugin reads it; Bevy's render is what checks both.)
 
 mod common;
 
@@ -151,6 +152,6 @@ fn an_environment_map_lights_cdrf_meshes_as_it_lights_bevys() {
     let mean = ratios.iter().sum::<f32>() / ratios.len() as f32;
     println!("Bevy / plugin: {ratios:.4?} (mean {mean:.4})");
     for ratio in &ratios {
-        assert!((ratio / mean - 1.0).abs() < 0.01, "{ratios:?}");
+        assert!((ratio - 1.0).abs() < 0.01, "Bevy / plugin: {ratios:?}");
     }
 }
