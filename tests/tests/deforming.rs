@@ -80,6 +80,53 @@ fn bent(rest: &Mesh, rest_anisotropy: &[Vec3]) -> Pose {
     pose
 }
 
+/// The tube at rest and bent, each with its own curvature.
+struct BentTube {
+    rest: Mesh,
+    rest_curvature: cdrf_core::Curvature,
+    pose: Pose,
+    bent: Mesh,
+    bent_curvature: cdrf_core::Curvature,
+}
+
+impl BentTube {
+    fn new() -> Self {
+        let rest = tube();
+        let rest_curvature = curvature(&rest);
+        let pose = bent(&rest, &rest_curvature.anisotropy_per_mm);
+        let bent = Mesh {
+            positions: pose.positions.clone(),
+            normals: pose.normals.clone(),
+            ..rest.clone()
+        };
+        let bent_curvature = curvature(&bent);
+        Self {
+            rest,
+            rest_curvature,
+            pose,
+            bent,
+            bent_curvature,
+        }
+    }
+
+    /// A mesh created bent, with the bent shape's curvature.
+    fn create_bent(&self, bench: &mut Bench) -> MeshId {
+        bench.create(
+            &MeshDesc::from_mesh(&self.bent, &self.bent_curvature.mean_per_mm)
+                .with_curvature_anisotropy(&self.bent_curvature.anisotropy_per_mm),
+        )
+    }
+
+    /// A deforming mesh created at rest, with the rest pose's curvature.
+    fn create_rest_deforming(&self, bench: &mut Bench) -> MeshId {
+        bench.create(
+            &MeshDesc::from_mesh(&self.rest, &self.rest_curvature.mean_per_mm)
+                .with_curvature_anisotropy(&self.rest_curvature.anisotropy_per_mm)
+                .deforming(),
+        )
+    }
+}
+
 /// One renderer, its offscreen target and the bundled wax: an orthographic view along −z of
 /// the bent tube, mm world units, a light from above and in front.
 struct Bench {
@@ -180,26 +227,12 @@ fn curvature(mesh: &Mesh) -> cdrf_core::Curvature {
 /// its patches stay the rest pose's cut, placed where their vertices now are).
 #[test]
 fn an_updated_mesh_renders_as_one_created_in_that_shape() {
-    let rest = tube();
-    let rest_curvature = curvature(&rest);
-    let pose = bent(&rest, &rest_curvature.anisotropy_per_mm);
-    let bent_mesh = Mesh {
-        positions: pose.positions.clone(),
-        normals: pose.normals.clone(),
-        ..rest.clone()
-    };
-    let bent_curvature = curvature(&bent_mesh);
+    let tube = BentTube::new();
+    let pose = &tube.pose;
 
     let mut bench = Bench::new();
-    let created = bench.create(
-        &MeshDesc::from_mesh(&bent_mesh, &bent_curvature.mean_per_mm)
-            .with_curvature_anisotropy(&bent_curvature.anisotropy_per_mm),
-    );
-    let deforming = bench.create(
-        &MeshDesc::from_mesh(&rest, &rest_curvature.mean_per_mm)
-            .with_curvature_anisotropy(&rest_curvature.anisotropy_per_mm)
-            .deforming(),
-    );
+    let created = tube.create_bent(&mut bench);
+    let deforming = tube.create_rest_deforming(&mut bench);
     let before_update = bench.render(deforming, NonLocal::OFF);
     bench
         .renderer
@@ -207,8 +240,8 @@ fn an_updated_mesh_renders_as_one_created_in_that_shape() {
             &software_device().queue,
             deforming,
             &MeshVertices {
-                curvature_per_mm: Some(&bent_curvature.mean_per_mm),
-                curvature_anisotropy_per_mm: Some(&bent_curvature.anisotropy_per_mm),
+                curvature_per_mm: Some(&tube.bent_curvature.mean_per_mm),
+                curvature_anisotropy_per_mm: Some(&tube.bent_curvature.anisotropy_per_mm),
                 ..MeshVertices::new(&pose.positions, &pose.normals)
             },
         )
@@ -252,39 +285,26 @@ fn an_updated_mesh_renders_as_one_created_in_that_shape() {
 /// is the inside and outside of the bend, whose curvature along the axis gains or loses 1/R.
 #[test]
 fn the_rest_poses_curvature_on_a_bent_tube() {
-    let rest = tube();
-    let rest_curvature = curvature(&rest);
-    let pose = bent(&rest, &rest_curvature.anisotropy_per_mm);
-    let bent_mesh = Mesh {
-        positions: pose.positions.clone(),
-        normals: pose.normals.clone(),
-        ..rest.clone()
-    };
-    let bent_curvature = curvature(&bent_mesh);
-    let change: Vec<f32> = bent_curvature
+    let tube = BentTube::new();
+    let pose = &tube.pose;
+    let change: Vec<f32> = tube
+        .bent_curvature
         .mean_per_mm
         .iter()
-        .zip(&rest_curvature.mean_per_mm)
+        .zip(&tube.rest_curvature.mean_per_mm)
         .map(|(b, r)| (b - r).abs())
         .collect();
     let mean_change = change.iter().sum::<f32>() / change.len() as f32;
-    let rest_mean =
-        rest_curvature.mean_per_mm.iter().sum::<f32>() / rest_curvature.mean_per_mm.len() as f32;
+    let rest_mean = tube.rest_curvature.mean_per_mm.iter().sum::<f32>()
+        / tube.rest_curvature.mean_per_mm.len() as f32;
     println!(
         "mean |H_bent − H_rest| = {mean_change:.4} /mm (rest mean H {rest_mean:.4} /mm, 1/(2R) = {:.4} /mm)",
         0.5 / BEND_RADIUS_MM
     );
 
     let mut bench = Bench::new();
-    let own = bench.create(
-        &MeshDesc::from_mesh(&bent_mesh, &bent_curvature.mean_per_mm)
-            .with_curvature_anisotropy(&bent_curvature.anisotropy_per_mm),
-    );
-    let deforming = bench.create(
-        &MeshDesc::from_mesh(&rest, &rest_curvature.mean_per_mm)
-            .with_curvature_anisotropy(&rest_curvature.anisotropy_per_mm)
-            .deforming(),
-    );
+    let own = tube.create_bent(&mut bench);
+    let deforming = tube.create_rest_deforming(&mut bench);
     bench
         .renderer
         .update_mesh(

@@ -18,7 +18,7 @@ use std::process::ExitCode;
 use cdrf_core::Mesh;
 use cdrf_core::glam::{Mat4, Vec3};
 use gltf::json;
-use gltf_fixture::Builder;
+use gltf_fixture::{Builder, floats};
 use json::accessor::{ComponentType, Type};
 use json::validation::Checked::Valid;
 
@@ -35,27 +35,10 @@ fn glb() -> Result<Vec<u8>, String> {
         *p = u * SEMI_AXES_M;
         *n = (u / SEMI_AXES_M).normalize();
     }
-    let floats = |values: &mut dyn Iterator<Item = f32>| -> Vec<u8> {
-        values.flat_map(f32::to_le_bytes).collect()
-    };
     let count = tube.positions.len();
     let mut builder = Builder::new("cdrf-core example make_skinned_asset");
-    let (min, max) = tube
-        .positions
-        .iter()
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
-            (lo.min(p), hi.max(p))
-        });
-    let bytes = floats(&mut tube.positions.iter().flat_map(|p| p.to_array()));
-    let positions = builder.accessor(
-        &bytes,
-        count,
-        ComponentType::F32,
-        Type::Vec3,
-        Some((min, max)),
-    );
-    let bytes = floats(&mut tube.normals.iter().flat_map(|n| n.to_array()));
-    let normals = builder.accessor(&bytes, count, ComponentType::F32, Type::Vec3, None);
+    let positions = builder.vec3s(&tube.positions, true);
+    let normals = builder.vec3s(&tube.normals, false);
     let right: Vec<f32> = tube
         .positions
         .iter()
@@ -69,22 +52,10 @@ fn glb() -> Result<Vec<u8>, String> {
         .flat_map(u16::to_le_bytes)
         .collect();
     let joints = builder.accessor(&bytes, count, ComponentType::U16, Type::Vec4, None);
-    let bytes = floats(&mut right.iter().flat_map(|&r| [1.0 - r, r, 0.0, 0.0]));
+    let bytes = floats(right.iter().flat_map(|&r| [1.0 - r, r, 0.0, 0.0]));
     let weights = builder.accessor(&bytes, count, ComponentType::F32, Type::Vec4, None);
-    let bytes: Vec<u8> = tube
-        .triangles
-        .iter()
-        .flatten()
-        .flat_map(|i| i.to_le_bytes())
-        .collect();
-    let indices = builder.accessor(
-        &bytes,
-        3 * tube.triangles.len(),
-        ComponentType::U32,
-        Type::Scalar,
-        None,
-    );
-    let bytes = floats(&mut (0..2).flat_map(|_| Mat4::IDENTITY.to_cols_array()));
+    let indices = builder.triangles(&tube.triangles);
+    let bytes = floats((0..2).flat_map(|_| Mat4::IDENTITY.to_cols_array()));
     let inverse_binds = builder.accessor(&bytes, 2, ComponentType::F32, Type::Mat4, None);
 
     let root = &mut builder.root;

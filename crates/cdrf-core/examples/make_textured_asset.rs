@@ -27,7 +27,7 @@ use std::process::ExitCode;
 
 use cdrf_core::glam::{Vec2, Vec3};
 use gltf::json;
-use gltf_fixture::Builder;
+use gltf_fixture::{Builder, floats};
 use json::validation::Checked::Valid;
 
 mod gltf_fixture;
@@ -174,44 +174,16 @@ impl Builder {
         material: json::Index<json::Material>,
     ) -> json::mesh::Primitive {
         use json::accessor::{ComponentType, Type};
-        let floats = |values: &mut dyn Iterator<Item = f32>| -> Vec<u8> {
-            values.flat_map(f32::to_le_bytes).collect()
-        };
-        let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        for &p in &sphere.positions {
-            min = min.min(p);
-            max = max.max(p);
-        }
         let count = sphere.positions.len();
         let mut attributes = BTreeMap::new();
-        let bytes = floats(&mut sphere.positions.iter().flat_map(|p| p.to_array()));
-        let positions = self.accessor(
-            &bytes,
-            count,
-            ComponentType::F32,
-            Type::Vec3,
-            Some((min, max)),
-        );
+        let positions = self.vec3s(&sphere.positions, true);
         attributes.insert(Valid(json::mesh::Semantic::Positions), positions);
-        let bytes = floats(&mut sphere.normals.iter().flat_map(|n| n.to_array()));
-        let normals = self.accessor(&bytes, count, ComponentType::F32, Type::Vec3, None);
+        let normals = self.vec3s(&sphere.normals, false);
         attributes.insert(Valid(json::mesh::Semantic::Normals), normals);
-        let bytes = floats(&mut sphere.uvs.iter().flat_map(|t| t.to_array()));
+        let bytes = floats(sphere.uvs.iter().flat_map(|t| t.to_array()));
         let uvs = self.accessor(&bytes, count, ComponentType::F32, Type::Vec2, None);
         attributes.insert(Valid(json::mesh::Semantic::TexCoords(0)), uvs);
-        let bytes: Vec<u8> = sphere
-            .triangles
-            .iter()
-            .flatten()
-            .flat_map(|i| i.to_le_bytes())
-            .collect();
-        let indices = self.accessor(
-            &bytes,
-            3 * sphere.triangles.len(),
-            ComponentType::U32,
-            Type::Scalar,
-            None,
-        );
+        let indices = self.triangles(&sphere.triangles);
         json::mesh::Primitive {
             attributes,
             extensions: None,

@@ -159,9 +159,7 @@ impl ViewBuffer {
 
     /// Adds a view of the frame set last; returns its index. A new buffer, when it needs
     /// more room, holds every view again (commands recorded earlier keep the old one).
-    ///
-    /// # Panics
-    /// Before [`ViewBuffer::set_frame`].
+    /// [`PrepareError::NotPrepared`] when no frame is set (none yet, or its `prepare` failed).
     pub(crate) fn add_view(
         &mut self,
         device: &wgpu::Device,
@@ -169,7 +167,7 @@ impl ViewBuffer {
         view: &View,
         exposure: f32,
     ) -> Result<usize, PrepareError> {
-        let mut uniforms = *self.views.first().expect("a frame was set");
+        let mut uniforms = *self.views.first().ok_or(PrepareError::NotPrepared)?;
         set_view(&mut uniforms, view, exposure)?;
         let index = self.views.len();
         self.views.push(uniforms);

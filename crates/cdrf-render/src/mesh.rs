@@ -90,25 +90,19 @@ impl<'a> MeshDesc<'a> {
                 count: self.indices.len(),
             });
         }
-        for (what, found) in [
-            ("normals", Some(self.normals.len())),
-            ("curvature values", Some(self.curvature_per_mm.len())),
-            (
-                "curvature anisotropies",
-                self.curvature_anisotropy_per_mm.map(<[_]>::len),
-            ),
-            ("UVs", self.uvs.map(<[_]>::len)),
-            ("tangents", self.tangents.map(<[_]>::len)),
-        ] {
-            let Some(found) = found else { continue };
-            if found != vertices {
-                return Err(MeshUploadError::AttributeCount {
-                    what,
-                    found,
-                    vertices,
-                });
-            }
-        }
+        check_counts(
+            vertices,
+            [
+                ("normals", Some(self.normals.len())),
+                ("curvature values", Some(self.curvature_per_mm.len())),
+                (
+                    "curvature anisotropies",
+                    self.curvature_anisotropy_per_mm.map(<[_]>::len),
+                ),
+                ("UVs", self.uvs.map(<[_]>::len)),
+                ("tangents", self.tangents.map(<[_]>::len)),
+            ],
+        )?;
         if let Some((position, &index)) = self
             .indices
             .iter()
@@ -186,25 +180,19 @@ impl<'a> MeshVertices<'a> {
     }
 
     fn validate(&self, vertices: usize) -> Result<(), MeshUploadError> {
-        for (what, found) in [
-            ("positions", Some(self.positions.len())),
-            ("normals", Some(self.normals.len())),
-            ("tangents", self.tangents.map(<[_]>::len)),
-            ("curvature values", self.curvature_per_mm.map(<[_]>::len)),
-            (
-                "curvature anisotropies",
-                self.curvature_anisotropy_per_mm.map(<[_]>::len),
-            ),
-        ] {
-            let Some(found) = found else { continue };
-            if found != vertices {
-                return Err(MeshUploadError::AttributeCount {
-                    what,
-                    found,
-                    vertices,
-                });
-            }
-        }
+        check_counts(
+            vertices,
+            [
+                ("positions", Some(self.positions.len())),
+                ("normals", Some(self.normals.len())),
+                ("tangents", self.tangents.map(<[_]>::len)),
+                ("curvature values", self.curvature_per_mm.map(<[_]>::len)),
+                (
+                    "curvature anisotropies",
+                    self.curvature_anisotropy_per_mm.map(<[_]>::len),
+                ),
+            ],
+        )?;
         let finite3 = |values: &[Vec3]| values.iter().all(|v| v.is_finite());
         for (what, finite) in [
             ("position", finite3(self.positions)),
@@ -229,6 +217,24 @@ impl<'a> MeshVertices<'a> {
             }
         }
         Ok(())
+    }
+}
+
+/// Checks that each given per-vertex slice (`Some(length)`) has one value per vertex.
+fn check_counts<const N: usize>(
+    vertices: usize,
+    counts: [(&'static str, Option<usize>); N],
+) -> Result<(), MeshUploadError> {
+    match counts
+        .into_iter()
+        .find_map(|(what, found)| found.filter(|&found| found != vertices).map(|f| (what, f)))
+    {
+        Some((what, found)) => Err(MeshUploadError::AttributeCount {
+            what,
+            found,
+            vertices,
+        }),
+        None => Ok(()),
     }
 }
 

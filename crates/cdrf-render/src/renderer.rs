@@ -718,9 +718,6 @@ impl Renderer {
         view: &View,
         exposure: f32,
     ) -> Result<usize, PrepareError> {
-        if self.views.offset(0).is_none() {
-            return Err(PrepareError::NotPrepared);
-        }
         self.views.add_view(device, queue, view, exposure)
     }
 

@@ -46,6 +46,34 @@ fn face_direction(face: usize, u: f32, v: f32) -> glam::Vec3 {
     }
 }
 
+/// One texel of a cubemap's level 0, face by face, row by row.
+struct CubeTexel {
+    face: usize,
+    /// Its place in the face, `row × side + column`.
+    index: usize,
+    /// The world direction it holds before the light's rotation: Bevy's z-negated lookup.
+    unrotated: glam::Vec3,
+    /// Its solid angle, sr.
+    solid_angle: f32,
+}
+
+fn cube_texels(side: usize) -> impl Iterator<Item = CubeTexel> {
+    let texel = 2.0 / side as f32;
+    (0..6).flat_map(move |face| {
+        (0..side * side).map(move |index| {
+            let u = ((index % side) as f32 + 0.5) * texel - 1.0;
+            let v = ((index / side) as f32 + 0.5) * texel - 1.0;
+            let c = face_direction(face, u, v);
+            CubeTexel {
+                face,
+                index,
+                unrotated: glam::Vec3::new(c.x, c.y, -c.z).normalize(),
+                solid_angle: texel * texel / c.length_squared().powf(1.5),
+            }
+        })
+    })
+}
+
 /// A texel's linear RGB.
 fn decode(format: TextureFormat, bytes: &[u8]) -> [f32; 3] {
     let word = |i: usize| [bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]];
@@ -108,23 +136,13 @@ pub(crate) fn diffuse_map_sh(
     let rotation = glam::Quat::from_array(rotation.to_array());
     let count = (ORDER + 1) * (ORDER + 1);
     let mut sums = vec![[0.0f64; 3]; count];
-    let side = width as usize;
-    let texel = 2.0 / side as f32;
-    for face in 0..6 {
-        for y in 0..side {
-            for x in 0..side {
-                let u = (x as f32 + 0.5) * texel - 1.0;
-                let v = (y as f32 + 0.5) * texel - 1.0;
-                let c = face_direction(face, u, v);
-                let solid_angle = texel * texel / c.length_squared().powf(1.5);
-                let world = rotation * glam::Vec3::new(c.x, c.y, -c.z).normalize();
-                let offset = face * face_stride + (y * side + x) * texel_bytes;
-                let value = decode(format, &data[offset..offset + texel_bytes]);
-                for (sum, basis) in sums.iter_mut().zip(sh_basis(world, ORDER)) {
-                    for channel in 0..3 {
-                        sum[channel] += f64::from(value[channel]) * f64::from(basis * solid_angle);
-                    }
-                }
+    for texel in cube_texels(width as usize) {
+        let world = rotation * texel.unrotated;
+        let offset = texel.face * face_stride + texel.index * texel_bytes;
+        let value = decode(format, &data[offset..offset + texel_bytes]);
+        for (sum, basis) in sums.iter_mut().zip(sh_basis(world, ORDER)) {
+            for channel in 0..3 {
+                sum[channel] += f64::from(value[channel]) * f64::from(basis * texel.solid_angle);
             }
         }
     }
@@ -164,18 +182,10 @@ mod tests {
     /// A diffuse cubemap whose value at world direction N is `f(N)`.
     pub(crate) fn cubemap(side: u32, f: impl Fn(glam::Vec3) -> [f32; 3]) -> Image {
         let mut data = Vec::new();
-        let texel = 2.0 / side as f32;
-        for face in 0..6 {
-            for y in 0..side {
-                for x in 0..side {
-                    let u = (x as f32 + 0.5) * texel - 1.0;
-                    let v = (y as f32 + 0.5) * texel - 1.0;
-                    let c = face_direction(face, u, v);
-                    let value = f(glam::Vec3::new(c.x, c.y, -c.z).normalize());
-                    for channel in [value[0], value[1], value[2], 1.0] {
-                        data.extend_from_slice(&channel.to_le_bytes());
-                    }
-                }
+        for texel in cube_texels(side as usize) {
+            let value = f(texel.unrotated);
+            for channel in [value[0], value[1], value[2], 1.0] {
+                data.extend_from_slice(&channel.to_le_bytes());
             }
         }
         Image::new(

@@ -13,7 +13,7 @@ use bevy::prelude::*;
 use bevy::render::render_resource::{
     Extent3d, TextureDimension, TextureFormat, TextureViewDescriptor, TextureViewDimension,
 };
-use cdrf_bevy::{CdrfMaterial, CdrfMaterial3d, CdrfSettings};
+use cdrf_bevy::CdrfSettings;
 
 const SIZE: u32 = 64;
 const RADIUS_M: f32 = 0.03;
@@ -93,22 +93,7 @@ fn render(cdrf: bool) -> Vec<f32> {
     let sphere = world
         .resource_mut::<Assets<Mesh>>()
         .add(Sphere::new(RADIUS_M).mesh().ico(5).expect("an icosphere"));
-    if cdrf {
-        let white = world
-            .resource_mut::<Assets<CdrfMaterial>>()
-            .add(CdrfMaterial::lambert([1.0; 3]));
-        world.spawn((Mesh3d(sphere), CdrfMaterial3d(white)));
-    } else {
-        let white = world
-            .resource_mut::<Assets<StandardMaterial>>()
-            .add(StandardMaterial {
-                base_color: Color::WHITE,
-                perceptual_roughness: 1.0,
-                reflectance: 0.0,
-                ..default()
-            });
-        world.spawn((Mesh3d(sphere), MeshMaterial3d(white)));
-    }
+    common::spawn_white(world, sphere, cdrf, Transform::IDENTITY);
     world.spawn((
         common::measuring_camera(target.clone()),
         Projection::Orthographic(OrthographicProjection {

@@ -13,7 +13,6 @@ use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
 
 use cdrf_bevy::{CdrfMaterial, CdrfOverride, CdrfSettings, CdrfSurface};
-use cdrf_core::block_error::{BlockPixel, Region, blocks, covered_mask, region_error};
 use cdrf_core::light::{Light, NonLocal};
 use cdrf_core::scene::{Projection as SceneProjection, Scene};
 use cdrf_render::headless::{AdapterPreference, RenderSettings, render_scene_file};
@@ -114,40 +113,7 @@ fn a_gltf_scene_in_a_cdrf_material_renders_as_cdrf_renders_it() {
     .expect("cdrf-render renders the scene")
     .image;
     let bevy = render_through_bevy(&scene);
-    assert_eq!(
-        (bevy.width(), bevy.height()),
-        (reference.width, reference.height)
-    );
-    let mut through_bevy = cdrf_core::RgbaImage::new(reference.width, reference.height);
-    for y in 0..reference.height {
-        for x in 0..reference.width {
-            let [r, g, b] = common::linear_rgb(&bevy, x, y);
-            through_bevy.pixels[(y * reference.width + x) as usize] = [r, g, b, 1.0];
-        }
-    }
-    let out = Path::new(env!("CARGO_TARGET_TMPDIR"));
-    through_bevy
-        .write_png_srgb(out.join("textured-bevy.png"))
-        .expect("written");
-    reference
-        .write_png_srgb(out.join("textured-cdrf-render.png"))
-        .expect("written");
-
-    let mask = covered_mask(&reference, 1);
-    let width = reference.width;
-    let pixels = blocks(reference.width, reference.height, |x, y| {
-        let i = (y * width + x) as usize;
-        mask[i].then(|| {
-            let (r, b) = (reference.pixels[i], through_bevy.pixels[i]);
-            BlockPixel {
-                model: cdrf_core::glam::Vec3::new(b[0], b[1], b[2]),
-                reference: cdrf_core::glam::Vec3::new(r[0], r[1], r[2]),
-                cos_theta: 1.0,
-                occluded: 0.0,
-            }
-        })
-    });
-    let error = region_error(&pixels, Region::Lit);
+    let error = common::block_error_against("textured", &bevy, &reference);
     println!(
         "textured glTF, Bevy vs cdrf-render: {} blocks, mean relative error {:.4} %, relative RMSE {:.4} %",
         error.blocks,

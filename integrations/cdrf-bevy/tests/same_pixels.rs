@@ -11,7 +11,6 @@ use bevy::asset::RenderAssetUsages;
 use bevy::camera::ScalingMode;
 use bevy::prelude::*;
 use cdrf_bevy::{CdrfMaterial, CdrfMaterial3d, CdrfSettings};
-use cdrf_core::block_error::{BlockPixel, Region, blocks, covered_mask, region_error};
 use cdrf_core::light::{Light, NonLocal};
 use cdrf_core::scene::{Projection as SceneProjection, Scene};
 use cdrf_render::headless::{AdapterPreference, RenderSettings, render_scene_file};
@@ -98,45 +97,7 @@ fn the_knot_through_bevy_matches_cdrf_renders_pixels() {
     .expect("cdrf-render renders the knot")
     .image;
     let bevy = render_through_bevy(&scene);
-    assert_eq!(
-        (bevy.width(), bevy.height()),
-        (reference.width, reference.height)
-    );
-    // For a look at 1:1: both renders as sRGB PNGs.
-    let mut through_bevy = cdrf_core::RgbaImage::new(reference.width, reference.height);
-    for y in 0..reference.height {
-        for x in 0..reference.width {
-            let [r, g, b] = common::linear_rgb(&bevy, x, y);
-            through_bevy.pixels[(y * reference.width + x) as usize] = [r, g, b, 1.0];
-        }
-    }
-    let out = Path::new(env!("CARGO_TARGET_TMPDIR"));
-    through_bevy
-        .write_png_srgb(out.join("knot-bevy.png"))
-        .expect("written");
-    reference
-        .write_png_srgb(out.join("knot-cdrf-render.png"))
-        .expect("written");
-
-    let mask = covered_mask(&reference, 1);
-    let width = reference.width;
-    let pixel = |x: u32, y: u32| {
-        let i = (y * width + x) as usize;
-        if !mask[i] {
-            return None;
-        }
-        let r = reference.pixels[i];
-        let b = through_bevy.pixels[i];
-        Some(BlockPixel {
-            model: cdrf_core::glam::Vec3::new(b[0], b[1], b[2]),
-            reference: cdrf_core::glam::Vec3::new(r[0], r[1], r[2]),
-            // The whole silhouette is one region here.
-            cos_theta: 1.0,
-            occluded: 0.0,
-        })
-    };
-    let pixels = blocks(reference.width, reference.height, pixel);
-    let error = region_error(&pixels, Region::Lit);
+    let error = common::block_error_against("knot", &bevy, &reference);
     println!(
         "knot, Bevy vs cdrf-render: {} blocks, mean relative error {:.4} %, relative RMSE {:.4} %",
         error.blocks,

@@ -7,7 +7,7 @@
 mod common;
 
 use bevy::prelude::*;
-use cdrf_bevy::{CdrfMaterial, CdrfMaterial3d, CdrfSettings};
+use cdrf_bevy::CdrfSettings;
 use std::f32::consts::PI;
 
 const SIZE: u32 = 64;
@@ -26,22 +26,7 @@ fn centre_radiance(cdrf: bool) -> [f32; 3] {
         .resource_mut::<Assets<Mesh>>()
         .add(Sphere::new(RADIUS_M).mesh().uv(64, 32));
     let transform = Transform::from_rotation(Quat::from_rotation_x(PI / 2.0));
-    if cdrf {
-        let white = world
-            .resource_mut::<Assets<CdrfMaterial>>()
-            .add(CdrfMaterial::lambert([1.0; 3]));
-        world.spawn((Mesh3d(sphere), CdrfMaterial3d(white), transform));
-    } else {
-        let white = world
-            .resource_mut::<Assets<StandardMaterial>>()
-            .add(StandardMaterial {
-                base_color: Color::WHITE,
-                perceptual_roughness: 1.0,
-                reflectance: 0.0,
-                ..default()
-            });
-        world.spawn((Mesh3d(sphere), MeshMaterial3d(white), transform));
-    }
+    common::spawn_white(world, sphere, cdrf, transform);
     world.spawn((
         PointLight {
             intensity: POWER_LM,

@@ -84,6 +84,42 @@ impl Builder {
         })
     }
 
+    /// An accessor of `VEC3` floats, one per point; with their bounds (`positions`, as glTF
+    /// requires for `POSITION`) or without.
+    pub fn vec3s(&mut self, values: &[Vec3], positions: bool) -> json::Index<json::Accessor> {
+        let bounds = positions.then(|| {
+            values
+                .iter()
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+                    (lo.min(p), hi.max(p))
+                })
+        });
+        let bytes = floats(values.iter().flat_map(|v| v.to_array()));
+        self.accessor(
+            &bytes,
+            values.len(),
+            json::accessor::ComponentType::F32,
+            json::accessor::Type::Vec3,
+            bounds,
+        )
+    }
+
+    /// An index accessor of `triangles` (`u32`).
+    pub fn triangles(&mut self, triangles: &[[u32; 3]]) -> json::Index<json::Accessor> {
+        let bytes: Vec<u8> = triangles
+            .iter()
+            .flatten()
+            .flat_map(|i| i.to_le_bytes())
+            .collect();
+        self.accessor(
+            &bytes,
+            3 * triangles.len(),
+            json::accessor::ComponentType::U32,
+            json::accessor::Type::Scalar,
+            None,
+        )
+    }
+
     /// The GLB file: the JSON, then the binary chunk.
     pub fn glb(self) -> Result<Vec<u8>, String> {
         let Self { mut root, bin } = self;
@@ -103,6 +139,11 @@ impl Builder {
         };
         glb.to_vec().map_err(|e| format!("assembling the GLB: {e}"))
     }
+}
+
+/// Little-endian `f32` bytes.
+pub fn floats(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
+    values.into_iter().flat_map(f32::to_le_bytes).collect()
 }
 
 /// Writes `bytes` to the path given as the one argument, or says how to call it.

@@ -14,7 +14,9 @@ use bevy::render::render_resource::TextureFormat;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy::window::ExitCondition;
 use bevy::winit::WinitPlugin;
-use cdrf_bevy::{CdrfPlugin, CdrfSettings};
+use cdrf_bevy::{CdrfMaterial, CdrfMaterial3d, CdrfPlugin, CdrfSettings};
+use cdrf_core::RgbaImage;
+use cdrf_core::block_error::{BlockPixel, Region, RegionError, blocks, covered_mask, region_error};
 
 /// Bevy's default plugins without a window, compiling pipelines as they are asked for.
 pub fn headless_plugins() -> PluginGroupBuilder {
@@ -121,4 +123,65 @@ pub fn linear_rgb(image: &Image, x: u32, y: u32) -> [f32; 3] {
         .expect("a pixel of a float image")
         .to_linear();
     [c.red, c.green, c.blue]
+}
+
+/// The block error (8 × 8 blocks of the reference's silhouette, mean relative error) of a
+/// Bevy capture against cdrf-render's image of the same scene; both are written as sRGB PNGs
+/// (`NAME-bevy.png`, `NAME-cdrf-render.png`) to the tests' temporary folder for a look at 1:1.
+pub fn block_error_against(name: &str, bevy: &Image, reference: &RgbaImage) -> RegionError {
+    assert_eq!(
+        (bevy.width(), bevy.height()),
+        (reference.width, reference.height)
+    );
+    let width = reference.width;
+    let mut through_bevy = RgbaImage::new(width, reference.height);
+    for y in 0..reference.height {
+        for x in 0..width {
+            let [r, g, b] = linear_rgb(bevy, x, y);
+            through_bevy.pixels[(y * width + x) as usize] = [r, g, b, 1.0];
+        }
+    }
+    let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+    through_bevy
+        .write_png_srgb(out.join(format!("{name}-bevy.png")))
+        .expect("written");
+    reference
+        .write_png_srgb(out.join(format!("{name}-cdrf-render.png")))
+        .expect("written");
+    let mask = covered_mask(reference, 1);
+    let pixels = blocks(width, reference.height, |x, y| {
+        let i = (y * width + x) as usize;
+        mask[i].then(|| {
+            let (r, b) = (reference.pixels[i], through_bevy.pixels[i]);
+            BlockPixel {
+                model: cdrf_core::glam::Vec3::new(b[0], b[1], b[2]),
+                reference: cdrf_core::glam::Vec3::new(r[0], r[1], r[2]),
+                // The whole silhouette is one region here.
+                cos_theta: 1.0,
+                occluded: 0.0,
+            }
+        })
+    });
+    region_error(&pixels, Region::Lit)
+}
+
+/// Spawns `mesh` in white: the plugin's Lambert (`cdrf`) or Bevy's own diffuse
+/// `StandardMaterial` (white, roughness 1, reflectance 0: no specular), for comparing the two.
+pub fn spawn_white(world: &mut World, mesh: Handle<Mesh>, cdrf: bool, transform: Transform) {
+    if cdrf {
+        let white = world
+            .resource_mut::<Assets<CdrfMaterial>>()
+            .add(CdrfMaterial::lambert([1.0; 3]));
+        world.spawn((Mesh3d(mesh), CdrfMaterial3d(white), transform));
+    } else {
+        let white = world
+            .resource_mut::<Assets<StandardMaterial>>()
+            .add(StandardMaterial {
+                base_color: Color::WHITE,
+                perceptual_roughness: 1.0,
+                reflectance: 0.0,
+                ..default()
+            });
+        world.spawn((Mesh3d(mesh), MeshMaterial3d(white), transform));
+    }
 }
