@@ -160,3 +160,29 @@ fn through_medium(ray: vec3<f32>, shape: LocalShape, q: vec3<f32>, tolerance_mm:
     }
     return 1.0 - smoothstep(tolerance_mm, 2.0 * tolerance_mm, ahead);
 }
+
+// The gain on G deep on the shadow side of a body thinner along the light than its osculating
+// circle there (curvature along the light) predicts — wider than it is thick, as a thick body
+// lit from behind or a tube's far side: the spheres the profile was fitted to lose light
+// through their curved sides that such a body keeps (confinement). 1 on a sphere, whose chord
+// is the circle's. The gain grows with how much thinner it is (per channel, on the scale of the
+// transmission length ℓ_T) and with the thickness itself (light that crossed a body a few ℓ_T
+// thick; a 7 mm strand barely), to at most 1 + CONFINEMENT_GAIN, faded in from θ = 100° to 120°
+// (nearer the terminator the light runs along the surface). Fitted to the blob and capsule lit
+// from behind and the torus (docs/research/thick-bodies.md).
+const CONFINEMENT_GAIN: f32 = 1.0;
+const CONFINEMENT_THICKNESS_LENGTHS: f32 = 2.0;
+const CONFINEMENT_TOLERANCE_MM: f32 = 1.0;
+// `thickness_mm`: the body along the light at the point (NonLocalTerms); `along`: n · the
+// light's ray (> 0 on the shadow side).
+fn confinement_gain(thickness_mm: f32, along: f32, light_curvature_per_mm: f32) -> vec3<f32> {
+    if thickness_mm <= 0.0 || along <= 0.0 || light_curvature_per_mm <= 1e-3 {
+        return vec3<f32>(1.0);
+    }
+    let chord_mm = 2.0 * along / light_curvature_per_mm;
+    let thinner_mm = clamp(chord_mm - thickness_mm - CONFINEMENT_TOLERANCE_MM, 0.0, thickness_mm);
+    let length_mm = material.transmission_length_mm;
+    let thick = 1.0 - exp(-thickness_mm / (CONFINEMENT_THICKNESS_LENGTHS * length_mm));
+    let deep = smoothstep(0.17, 0.5, along);
+    return 1.0 + CONFINEMENT_GAIN * deep * thick * (1.0 - exp(-thinner_mm / length_mm));
+}

@@ -168,6 +168,9 @@ fn non_local_terms(
     }
     var terms = no_terms();
     terms.visibility = unoccluded / weights;
+    if centre_lit && n_along > 0.0 {
+        terms.thickness_mm = max(p_depth - centre_column.first_surface_mm, 0.0);
+    }
     if transmits && centre_lit && n_along > 0.0 {
         terms.transmission = smoothstep(0.0, THIN_PART_FADE_END, n_along)
             * thin_part_transmission(

@@ -12,6 +12,9 @@ struct NonLocalTerms {
     // G: light that entered the lit surface near the point and reached it through the medium
     // (the subsurface gather), π·L per unit of the light's strength (light_strength).
     gather: vec3<f32>,
+    // The body's thickness along the light at a point on its shadow side whose column's first
+    // surface is its own (mm; 0 elsewhere): the gather's confinement gain reads it.
+    thickness_mm: f32,
 }
 
 // No terms: visibility 1, nothing through the material.
@@ -20,6 +23,7 @@ fn no_terms() -> NonLocalTerms {
     terms.visibility = vec3<f32>(1.0);
     terms.transmission = vec3<f32>(0.0);
     terms.gather = vec3<f32>(0.0);
+    terms.thickness_mm = 0.0;
     return terms;
 }
 

@@ -197,7 +197,8 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
             let share = light_share(i, incidence, cos_theta, theta, curvature_per_mm, terms);
             var reflected = share.reflected;
             if MODEL != MODEL_LAMBERT {
-                reflected *= view_value(curvature_per_mm, theta, phi);
+                reflected *= view_value(curvature_per_mm, theta, phi)
+                    * view_azimuth(curvature_per_mm, theta, dot(to_camera, incidence.to_light));
             }
             radiance += FRAC_1_PI * reflected;
             if material.specular_on != 0u {
@@ -214,3 +215,4 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     }
     return vec4<f32>(radiance, 1.0);
 }
+

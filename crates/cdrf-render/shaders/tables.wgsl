@@ -75,7 +75,21 @@ fn table_value(curvature_per_mm: f32, theta: f32, near_field: bool) -> vec3<f32>
         lut_and_near_field,
         at.x,
         at.y + select(0.0, rows, near_field),
-        vec2<f32>(material.lut_size.x, 2.0 * rows),
+        vec2<f32>(material.lut_size.x, 3.0 * rows),
+    );
+}
+
+// a(κ, θ) = κ · (−∂ ln f / ∂θ), per mm: how fast f falls along the surface away from the
+// light. −∂ ln f / ∂θ (cdrf-core's CdrfLut::falloff_per_rad) is lut_and_near_field's third
+// block; κ is the point's own, so a plane (κ = 0, below the table's axis) has no flow.
+fn surface_falloff_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
+    let at = lut_coordinates(curvature_per_mm, theta);
+    let rows = material.lut_size.y;
+    return max(curvature_per_mm, 0.0) * read_bilinear(
+        lut_and_near_field,
+        at.x,
+        at.y + 2.0 * rows,
+        vec2<f32>(material.lut_size.x, 3.0 * rows),
     );
 }
 
@@ -83,4 +97,32 @@ fn table_value(curvature_per_mm: f32, theta: f32, near_field: bool) -> vec3<f32>
 fn subsurface_gain_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
     let at = lut_coordinates(curvature_per_mm, theta);
     return read_bilinear(subsurface_gain, at.x, at.y, material.lut_size);
+}
+
+// The view's azimuth, which the table's photographs never varied (their camera at 90° to the
+// light): light under the surface flows away from the light, and a view along the flow sees
+// more of it (the diffusion approximation's flux term, L ∝ φ − ℓ·∇φ·ω). Relative to the 90°
+// photographs, the view's component along the surface away from the light grows by
+// −(v·l) / sin θ, so the table's value is multiplied by exp(ℓ·a·x) (x = ℓ·a·(−v·l)/sin θ;
+// 1/(1 − x) where x < 0, which darkens less, as the front-lit spheres do): 1 wherever the
+// camera is at 90° to the light. ℓ is the transport mean free path (1 mm for the wax and
+// Skin1); on the shadow side the light that crossed the body flows too, and ℓ grows to
+// ℓ·(1 + SHADOW_FLUX_GAIN·|cos θ|) for a view along the flow. Measured on path-traced spheres
+// lit from behind and beside the camera (docs/shading.md, "The view's azimuth").
+const FLUX_LENGTH_MM: f32 = 1.0;
+const SHADOW_FLUX_GAIN: f32 = 2.4;
+// sin θ is held at this much (θ within 20° of the light or of its opposite, where the azimuth
+// is ill-defined and the table's slope is that of its filled ends).
+const AZIMUTH_MIN_SINE: f32 = 0.35;
+// The exponent's cap (a factor of e² ≈ 7.4).
+const AZIMUTH_LIMIT: f32 = 2.0;
+fn view_azimuth(curvature_per_mm: f32, theta: f32, view_dot_light: f32) -> vec3<f32> {
+    if MODEL != MODEL_MEASURED && MODEL != MODEL_GAUSSIAN_LUT {
+        return vec3<f32>(1.0);
+    }
+    let across = -view_dot_light / max(sin(theta), AZIMUTH_MIN_SINE);
+    let shadow = max(-cos(theta), 0.0) * step(0.0, across);
+    let length_mm = FLUX_LENGTH_MM * (1.0 + SHADOW_FLUX_GAIN * shadow);
+    let x = min(length_mm * surface_falloff_value(curvature_per_mm, theta) * across, vec3<f32>(AZIMUTH_LIMIT));
+    return select(1.0 / (1.0 - x), exp(x), x >= vec3<f32>(0.0));
 }

@@ -124,6 +124,12 @@ fn vertex_non_local(
             let gain = subsurface_gain_value(light_curvature_per_mm, angle(dot(normal, to_light)));
             terms.gather *= v + (vec3<f32>(1.0) - v) * gain;
         }
+        terms.gather *= confinement_gain(
+            terms.thickness_mm,
+            dot(shape.normal, light_ray(index, shape.point)),
+            light_curvature_per_mm,
+        );
     }
     return terms;
 }
+

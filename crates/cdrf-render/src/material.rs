@@ -338,12 +338,13 @@ impl MaterialFactory {
                     Some(tables) => rows.extend_from_slice(&tables.near),
                     None => rows.extend_from_slice(lut.radiance()),
                 }
+                rows.extend(lut.falloff_per_rad());
                 self.upload_table(
                     device,
                     queue,
                     "cdrf table and near field",
                     lut.theta_count(),
-                    2 * lut.curvature_axis().count,
+                    3 * lut.curvature_axis().count,
                     &rows,
                 )?
             }

@@ -1,0 +1,48 @@
+//! `CdrfLut::falloff_per_rad`: −∂ ln f / ∂θ, the rate the view's azimuth term reads.
+
+use std::f32::consts::PI;
+
+use cdrf_core::glam::Vec3;
+use cdrf_core::{CdrfLut, CurvatureAxis};
+
+const COLUMNS: usize = 181;
+
+fn table(f: impl Fn(f32) -> Vec3) -> CdrfLut {
+    let axis = CurvatureAxis::from_radii_mm(50.0, 5.0, 4);
+    let radiance = (0..axis.count * COLUMNS)
+        .map(|i| f(PI * (i % COLUMNS) as f32 / (COLUMNS - 1) as f32))
+        .collect();
+    CdrfLut::new(axis, COLUMNS, radiance).unwrap()
+}
+
+/// f = exp(−θ/w) per channel: ln f is linear, so the rate is 1/w at every θ, ends included
+/// (the widths keep f above the floor of 10⁻⁴ of its largest value up to θ = π).
+#[test]
+fn an_exponential_falls_at_one_over_its_width() {
+    let widths = Vec3::new(0.9, 0.6, 0.4);
+    let lut = table(|theta| (-Vec3::splat(theta) / widths).exp());
+    let falloff = lut.falloff_per_rad();
+    assert_eq!(falloff.len(), lut.curvature_axis().count * COLUMNS);
+    let expected = Vec3::ONE / widths;
+    for (i, rate) in falloff.iter().enumerate() {
+        let error = ((*rate - expected) / expected).abs().max_element();
+        assert!(error < 1e-3, "texel {i}: {rate} against {expected}");
+    }
+}
+
+/// A table rising with θ has no flow away from the light: 0, never negative; zeros in the
+/// table (an unlit far side) give finite rates.
+#[test]
+fn the_rate_is_never_negative_and_always_finite() {
+    let rising = table(|theta| Vec3::splat(1.0 + theta));
+    assert!(rising.falloff_per_rad().iter().all(|r| *r == Vec3::ZERO));
+    let dark = table(|theta| Vec3::splat(theta.cos().max(0.0)));
+    let rates = dark.falloff_per_rad();
+    assert!(
+        rates
+            .iter()
+            .all(|r| r.is_finite() && r.min_element() >= 0.0)
+    );
+    // Past the terminator f is 0 on both sides of the difference: no flow there.
+    assert_eq!(rates[COLUMNS - 1], Vec3::ZERO);
+}
