@@ -18,6 +18,9 @@ right, +y image up, +z toward the viewer; millimetres.  Pinhole: a point (x, y, 
 projects to continuous pixel coordinates (0,0 = top-left corner of the top-left pixel)
     u = W/2 + f * x / (-z),   v = H/2 - f * y / (-z),   f = (H/2) / tan(vfov/2).
 Pixel (col i, row j) has its centre at (i + 0.5, j + 0.5).
+Mitsuba itself gets the scene translated so that a wax sphere's centre is its origin (mi_origin,
+render_tiles): its ray-spawn offset grows with the distance from the origin and would otherwise
+darken the terminators by 9-24 %.  The images do not depend on this translation otherwise.
 
 Usage (venv python; export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so):
   python make_captures.py check-camera   # camera convention + analytic labels vs Mitsuba shape-index AOV
@@ -28,7 +31,7 @@ Usage (venv python; export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-
   python make_captures.py check-flags    # flagged scenes: flag shadows cover every sphere, no flag over a disk
   nice -n 10 python make_captures.py render --only single_r10_flag single_r20_flag single_matte_flag --spp 256
   nice -n 10 python make_captures.py render --only single_r30_flag --spp 256
-  nice -n 10 python make_captures.py render --only multi_flag --spp 128   # all five flagged (ratios only)
+  nice -n 10 python make_captures.py render --only multi_flag --spp 32    # all five flagged (ratios only)
   nice -n 10 python make_captures.py render --only multi_flag_r50 --spp 64
   nice -n 10 python make_captures.py render --only multi_flag_r10 multi_flag_r20 multi_flag_r30 multi_flag_matte --spp 32
   nice -n 10 python make_captures.py render --only single_r50_flag --spp 192
@@ -347,27 +350,100 @@ def mi_rgb(v):
     return {'type': 'rgb', 'value': [float(t) for t in v]}
 
 
-def build_mi_scene(sc, spp_pass, integrator=None, sampler=None):
+def mi_origin(sc):
+    """The world point put at Mitsuba's origin: the mean of the sphere centres (a single sphere's
+    centre).  Mitsuba moves every ray it spawns from a surface (1 + max|p|) * 1500 * 2^-24 scene
+    units along the normal (Interaction::offset_p, math::RayEpsilon), p in world coordinates:
+    0.09 mm at 1 m from the origin.  At a wax sphere's null boundary the camera ray therefore starts
+    0.09 mm inside the wax and misses the thin grazing-lit layer that carries the terminator's
+    light (85-90 deg: -13 % at r = 20 mm, -24 % at r = 50 mm).  Rendering the scene translated by
+    -mi_origin(sc) leaves the image unchanged otherwise (camera space = world space everywhere
+    else in this script)."""
+    return np.mean([np.asarray(s['center_mm'], float) for s in sc['spheres']], axis=0)
+
+
+def render_tiles(sc):
+    """How the frame is rendered: a partition of it into rectangles (x0, y0, w, h) (pixels), each
+    rendered (hdrfilm crop) with its own Mitsuba origin (world mm), as dicts.  One sphere: the whole
+    frame, origin at the sphere centre (mi_origin).  Several spheres (multi*): they sit up to
+    ~210 mm from the row's centre, which would leave a 0.01-0.02 mm entry offset (about -8 % at
+    85-90 deg for r = 50, see mi_origin), so each WAX sphere's rectangle (bounding box of its
+    projected disk + TILE_MARGIN px) is rendered with the origin at THAT sphere's centre, and the
+    rest of the frame (above / below those boxes and the columns between them, matte sphere
+    included) with the origin at the row's centre (mi_origin).  Every pixel is rendered once, so
+    this costs no more than one full frame.  Tile t uses the seeds base + TILE_SEED_STRIDE*t + pass
+    (tile 0 = the plain seeds; no two tiles of a pass share a seed)."""
+    W, H = sc['W'], sc['H']
+    row = mi_origin(sc).tolist()
+    if len(sc['spheres']) == 1:
+        return [{'x0': 0, 'y0': 0, 'w': W, 'h': H, 'origin_mm': row, 'what': 'frame'}]
+    boxes = []
+    for s in sc['spheres']:
+        if s['material'] != 'wax':
+            continue
+        e = projected_ellipse(sc, s)
+        a, b = e['semi_major_px'], e['semi_minor_px']
+        phi = np.radians(e['major_axis_angle_deg'])
+        hw = np.sqrt((a * np.cos(phi)) ** 2 + (b * np.sin(phi)) ** 2)
+        hh = np.sqrt((a * np.sin(phi)) ** 2 + (b * np.cos(phi)) ** 2)
+        cx, cy = e['ellipse_center_px']
+        x0, x1 = max(0, int(np.floor(cx - hw)) - TILE_MARGIN), min(W, int(np.ceil(cx + hw)) + TILE_MARGIN)
+        y0, y1 = max(0, int(np.floor(cy - hh)) - TILE_MARGIN), min(H, int(np.ceil(cy + hh)) + TILE_MARGIN)
+        boxes.append((x0, x1, y0, y1, s))
+    boxes.sort(key=lambda t: t[0])
+    tiles, cur = [], 0
+    for x0, x1, y0, y1, s in boxes:
+        assert x0 >= cur, 'sphere boxes overlap in x'
+        if x0 > cur:
+            tiles.append({'x0': cur, 'y0': 0, 'w': x0 - cur, 'h': H, 'origin_mm': row, 'what': 'row'})
+        if y0 > 0:
+            tiles.append({'x0': x0, 'y0': 0, 'w': x1 - x0, 'h': y0, 'origin_mm': row, 'what': 'row'})
+        tiles.append({'x0': x0, 'y0': y0, 'w': x1 - x0, 'h': y1 - y0,
+                      'origin_mm': [float(t) for t in s['center_mm']], 'what': s['name']})
+        if y1 < H:
+            tiles.append({'x0': x0, 'y0': y1, 'w': x1 - x0, 'h': H - y1, 'origin_mm': row, 'what': 'row'})
+        cur = x1
+    if cur < W:
+        tiles.append({'x0': cur, 'y0': 0, 'w': W - cur, 'h': H, 'origin_mm': row, 'what': 'row'})
+    assert sum(t['w'] * t['h'] for t in tiles) == W * H
+    return tiles
+
+
+TILE_MARGIN = 4             # px around a wax sphere's projected disk (render_tiles)
+TILE_SEED_STRIDE = 100000   # tile t of a pass: seed base + TILE_SEED_STRIDE * t + pass
+
+
+def build_mi_scene(sc, spp_pass, integrator=None, sampler=None, origin=None, tile=None):
+    """The Mitsuba scene dict, translated by -origin (default mi_origin(sc)); tile: render only
+    that rectangle of the frame (see render_tiles)."""
     import mitsuba as mi
     T = mi.ScalarTransform4f
+    o = mi_origin(sc) if origin is None else np.asarray(origin, float)
+
+    def P(p):                      # world (camera) mm -> Mitsuba coordinates
+        return (np.asarray(p, float) - o).tolist()
+
     d = {'type': 'scene'}
     d['integrator'] = integrator or {'type': 'volpath', 'max_depth': MAX_DEPTH,
                                      'rr_depth': MAX_DEPTH}
     d['sensor'] = {
         'type': 'perspective', 'fov_axis': 'y', 'fov': float(sc['vfov_deg']),
         'near_clip': 1.0, 'far_clip': 20000.0,
-        'to_world': T().look_at(origin=[0, 0, 0], target=[0, 0, -1], up=[0, 1, 0]),
+        'to_world': T().look_at(origin=P([0, 0, 0]), target=P([0, 0, -1]), up=[0, 1, 0]),
         'film': {'type': 'hdrfilm', 'width': sc['W'], 'height': sc['H'],
                  'rfilter': {'type': 'box'}, 'pixel_format': 'rgb',
                  'component_format': 'float32'},
         'sampler': sampler or {'type': 'independent', 'sample_count': spp_pass},
     }
+    if tile is not None and (tile['w'], tile['h']) != (sc['W'], sc['H']):
+        d['sensor']['film'].update({'crop_offset_x': tile['x0'], 'crop_offset_y': tile['y0'],
+                                    'crop_width': tile['w'], 'crop_height': tile['h']})
     I = float(sc['lamp_intensity'])
-    d['lamp'] = {'type': 'point', 'position': [float(t) for t in sc['lamp_mm']],
+    d['lamp'] = {'type': 'point', 'position': P(sc['lamp_mm']),
                  'intensity': mi_rgb([I, I, I])}
     black = {'type': 'diffuse', 'reflectance': mi_rgb([POST_REFL] * 3)}
     for s in sc['spheres']:
-        shape = {'type': 'sphere', 'center': [float(t) for t in s['center_mm']],
+        shape = {'type': 'sphere', 'center': P(s['center_mm']),
                  'radius': float(s['radius_mm'])}
         if s['material'] == 'wax':
             shape['bsdf'] = {'type': 'null'}
@@ -378,13 +454,13 @@ def build_mi_scene(sc, spp_pass, integrator=None, sampler=None):
             shape['bsdf'] = {'type': 'diffuse', 'reflectance': mi_rgb([MATTE_ALBEDO] * 3)}
         d['sphere_' + s['name']] = shape
     for k, cy in enumerate(scene_occluders(sc)):
-        d[f'cyl{k}_{cy["kind"]}'] = {'type': 'cylinder', 'p0': [cy['x'], cy['y0'], cy['z']],
-                                     'p1': [cy['x'], cy['y1'], cy['z']], 'radius': cy['r'],
+        d[f'cyl{k}_{cy["kind"]}'] = {'type': 'cylinder', 'p0': P([cy['x'], cy['y0'], cy['z']]),
+                                     'p1': P([cy['x'], cy['y1'], cy['z']]), 'radius': cy['r'],
                                      'bsdf': black}
         if cy['kind'] == 'cup':   # bottom of the cup, facing up
             d[f'cyl{k}_cupbottom'] = {
                 'type': 'disk', 'bsdf': black,
-                'to_world': T().translate([cy['x'], cy['y0'], cy['z']]) @ T().rotate([1, 0, 0], -90)
+                'to_world': T().translate(P([cy['x'], cy['y0'], cy['z']])) @ T().rotate([1, 0, 0], -90)
                 @ T().scale([cy['r'], cy['r'], 1])}
     for k, fl in enumerate(sc.get('flags', [])):
         c = fl['center_mm']
@@ -393,18 +469,18 @@ def build_mi_scene(sc, spp_pass, integrator=None, sampler=None):
         d[f'flag{k}_{fl["of"]}'] = {
             'type': 'disk',
             'bsdf': {'type': 'twosided', 'bsdf': {'type': 'diffuse', 'reflectance': mi_rgb([FLAG_REFL] * 3)}},
-            'to_world': T().look_at(origin=c, target=(np.array(c) + n).tolist(), up=up)
+            'to_world': T().look_at(origin=P(c), target=P(np.array(c) + n), up=up)
             @ T().scale([fl['radius_mm'], fl['radius_mm'], 1])}
     zw = sc['wall_z_mm']
     # table: y = table_y, x in [-2500, 2500], z from the wall to 300 mm in front of the camera
     z_front = 300.0
     d['table'] = {'type': 'rectangle', 'bsdf': {'type': 'diffuse', 'reflectance': mi_rgb([TABLE_REFL] * 3)},
-                  'to_world': T().translate([0, sc['table_y_mm'], (zw + z_front) / 2])
+                  'to_world': T().translate(P([0, sc['table_y_mm'], (zw + z_front) / 2]))
                   @ T().rotate([1, 0, 0], -90) @ T().scale([2500, (z_front - zw) / 2, 1])}
     # wall: z = wall_z, facing +z, x in [-4000, 4000], y from the table to +3000
     y0, y1 = sc['table_y_mm'], 3000.0
     d['wall'] = {'type': 'rectangle', 'bsdf': {'type': 'diffuse', 'reflectance': mi_rgb([WALL_REFL] * 3)},
-                 'to_world': T().translate([0, (y0 + y1) / 2, zw]) @ T().scale([4000, (y1 - y0) / 2, 1])}
+                 'to_world': T().translate(P([0, (y0 + y1) / 2, zw])) @ T().scale([4000, (y1 - y0) / 2, 1])}
     return d
 
 
@@ -655,20 +731,26 @@ def render_scene(sc_name, sc, work, spp, pass_spp, max_seconds=None):
         acc = [np.zeros((H, W, 3)), np.zeros((H, W, 3))]
         n = [0, 0]
         t_acc = 0.0
+    tiles = render_tiles(sc)
+    if os.path.exists(acc_path):
+        assert json.loads(str(z['tiles'])) == tiles, 'tiles changed; delete the checkpoint'
     passes = spp // pass_spp
-    scene = mi.load_dict(build_mi_scene(sc, pass_spp))
+    mis = [mi.load_dict(build_mi_scene(sc, pass_spp, origin=t['origin_mm'], tile=t)) for t in tiles]
     t_start = time.time()
     for p in range(n[0] + n[1], passes):
         seed = seed_base(sc_name) + p
         t0 = time.time()
-        img = np.array(mi.render(scene, spp=pass_spp, seed=seed), dtype=np.float64)
+        img = np.zeros((H, W, 3))
+        for k, (t, scene) in enumerate(zip(tiles, mis)):
+            img[t['y0']:t['y0'] + t['h'], t['x0']:t['x0'] + t['w']] = np.array(
+                mi.render(scene, spp=pass_spp, seed=seed + TILE_SEED_STRIDE * k), dtype=np.float64)
         k = p % 2
         acc[k] += img
         n[k] += 1
         dt = time.time() - t0
         t_acc += dt
         np.savez(acc_path, sumA=acc[0], sumB=acc[1], nA=n[0], nB=n[1], seconds=t_acc,
-                 pass_spp=pass_spp, seed_base=seed_base(sc_name))
+                 pass_spp=pass_spp, seed_base=seed_base(sc_name), tiles=json.dumps(tiles))
         print(f'  [{sc_name}] pass {p + 1}/{passes} seed {seed} {dt:.1f}s', flush=True)
         if max_seconds and time.time() - t_start > max_seconds:
             print(f'  [{sc_name}] stopping early (time limit)', flush=True)
@@ -769,6 +851,13 @@ def finalize(sc_name, sc, work):
                        'note': 'rr_depth = max_depth: no Russian roulette (as data/wax-spheres)'},
         'spp': (nA + nB) * pass_spp, 'passes': nA + nB, 'spp_per_pass': pass_spp,
         'seeds': [int(z['seed_base']) + p for p in range(nA + nB)], 'sampler': 'independent',
+        'tiles': [dict(t, seeds=f'{int(z["seed_base"]) + TILE_SEED_STRIDE * k} + pass')
+                  for k, t in enumerate(render_tiles(sc))],
+        'tiles_note': ('the frame is rendered in these rectangles (hdrfilm crop), each with the Mitsuba '
+                       'scene translated by -origin_mm: Mitsuba offsets every ray spawned from a surface by '
+                       '(1 + max|p|) * 1500 * 2^-24 along the normal, which must stay negligible at the wax '
+                       'spheres (see make_captures.mi_origin / render_tiles); the image is otherwise the '
+                       'same scene (camera at the world origin)'),
         'render_time_s': round(float(z['seconds']), 1),
         'machine': f'{platform.machine()} {os.cpu_count()} cores, shared with cargo builds, nice 10',
         'files': {sc_name + '.exr': 'mean radiance (float32 linear RGB)',
@@ -1076,7 +1165,8 @@ def degrade(args):
                                   'post_bsdf', 'flags', 'flags_note', 'flag_shadow_max_offset_over_radius')
              if k in T[n]}
         t['render'] = {k: T[n]['render'][k] for k in ('renderer', 'integrator', 'spp', 'passes',
-                                                       'seeds', 'render_time_s', 'noise')}
+                                                       'seeds', 'tiles', 'tiles_note', 'render_time_s',
+                                                       'noise') if k in T[n]['render']}
         t['source_exr'] = os.path.join(work, n + '.exr') + ' (not in the repo)'
         return t
 

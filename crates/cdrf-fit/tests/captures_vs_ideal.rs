@@ -9,11 +9,14 @@
 //! terminator (80–110°) within 4 %, shadow side (110–150°) within 15 % or inside the fit's own
 //! 95 % band.
 //!
-//! Those bounds do not all hold yet (issue 38 is open; docs/research/captures.md says why: the
-//! captures' lamp is 83° from the camera, not 90°, which changes the photographed terminator by
-//! itself, and the flagged frame cannot remove all of the room's light from the shadow side of
-//! the 50 mm sphere). What this test holds every capture to is what the fit reaches today, so
-//! that it cannot get worse unnoticed: see [`held_to`].
+//! Those bounds do not all hold yet (issue 38 is open; docs/research/captures.md says why). The
+//! captures are rendered with each wax sphere at the path tracer's origin (its ray offset grows
+//! with the distance from it and had darkened their terminators by 6–33 %). What is left: the
+//! lamp is 83° from the camera (53–62° in the several-sphere photograph), not 90°, which changes
+//! the photographed terminator by itself (the view's azimuth, docs/shading.md; the fit does not
+//! divide it out yet), and the flagged frame cannot remove all of the room's light from the
+//! shadow side of the 50 mm sphere. What this test holds every capture to is what the fit
+//! reaches today, so that it cannot get worse unnoticed: see [`held_to`].
 
 use std::path::{Path, PathBuf};
 
@@ -117,19 +120,20 @@ fn check(case: &str) -> Vec<String> {
 }
 
 /// The bound a region is held to today (largest channel), or `None` where nothing is held.
-/// - lit side: the issue's 2 % on the RAW-like calibrated set, 6 % on the other single-sphere
-///   sets (the 30 mm sphere in its cup, JPEG's 8 bits), 8 % in the several-sphere photograph;
-/// - terminator: 35 % (the lamp–camera angle; see the module docs);
-/// - shadow side: 20 % for the RAW-like and the ideal-sensor sets up to r = 30 mm; the 50 mm
+/// - lit side: 3.5 % on the single-sphere sets (JPEG's 8 bits at r = 10 mm: 3.0 %), 5 % in the
+///   several-sphere photograph;
+/// - terminator: 6 % on the single-sphere sets, 20 % in the several-sphere photograph (the
+///   lamp–camera angle; see the module docs);
+/// - shadow side: 8 % for the RAW-like and the ideal-sensor sets up to r = 30 mm; the 50 mm
 ///   sphere (room light the flag leaves), JPEG (8 bits) and the several-sphere photograph are
 ///   printed only.
 fn held_to(case: &str, radius_mm: f32, region: &str) -> Option<f32> {
     match region {
-        "lit" if case == "raw14" => Some(0.02),
-        "lit" if case == "multi" => Some(0.08),
-        "lit" => Some(0.06),
-        "terminator" => Some(0.35),
-        "shadow" if matches!(case, "raw14" | "lamp") && radius_mm <= 30.0 => Some(0.2),
+        "lit" if case == "multi" => Some(0.05),
+        "lit" => Some(0.035),
+        "terminator" if case == "multi" => Some(0.2),
+        "terminator" => Some(0.06),
+        "shadow" if matches!(case, "raw14" | "lamp") && radius_mm <= 30.0 => Some(0.08),
         _ => None,
     }
 }
