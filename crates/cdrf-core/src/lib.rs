@@ -29,6 +29,7 @@
 //! ```
 
 pub mod atomic;
+pub mod azimuth;
 pub mod block_error;
 pub mod catmull_rom;
 pub mod curvature;

@@ -41,9 +41,6 @@ use crate::catmull_rom::{self, Ends};
 use crate::diffusion::DiffusionProfile;
 use crate::translucency::Translucency;
 
-/// Half the θ span of [`CdrfLut::falloff_per_rad`]'s differences, radians (5°).
-const SLOPE_HALF_WIDTH_RAD: f32 = 5.0 * PI / 180.0;
-
 /// A curvature-dependent reflectance function f(κ, θ).
 ///
 /// Values are in the LUT's radiance convention, **π·L/E** per RGB channel: a white Lambertian
@@ -501,32 +498,11 @@ impl CdrfLut {
     /// [`radiance`](Self::radiance)), at least 0; times κ, how fast it falls along the surface
     /// away from the light, per mm. The light under the surface flows that way, and a view along
     /// the flow sees more of it (the view's azimuth, which the table's spheres, lit at 90° to the
-    /// camera, never varied). Central differences in θ over ±5° (one-sided at the ends), f
-    /// floored at 10⁻⁴ of its row's largest value.
+    /// camera, never varied). Per row, [`crate::azimuth::falloff_per_rad`].
     pub fn falloff_per_rad(&self) -> Vec<Vec3> {
-        let columns = self.theta_count;
-        // At least two columns (CdrfLut::new).
-        let step = PI / (columns - 1) as f32;
-        // Differences over ±5° (at least one column): the fitted table's small wiggles would
-        // otherwise show in its derivative.
-        let reach = ((SLOPE_HALF_WIDTH_RAD / step).round() as usize).max(1);
-        let mut out = Vec::with_capacity(self.radiance.len());
-        for row in 0..self.curvature_axis.count {
-            let values = self.row(row);
-            let floor = values.iter().fold(Vec3::ZERO, |m, v| m.max(*v)) * 1e-4;
-            let ln = |j: usize| {
-                values[j]
-                    .max(floor)
-                    .max(Vec3::splat(f32::MIN_POSITIVE))
-                    .ln()
-            };
-            for j in 0..columns {
-                let (a, b) = (j.saturating_sub(reach), (j + reach).min(columns - 1));
-                let slope = (ln(b) - ln(a)) / ((b - a) as f32 * step);
-                out.push((-slope).max(Vec3::ZERO));
-            }
-        }
-        out
+        (0..self.curvature_axis.count)
+            .flat_map(|row| crate::azimuth::falloff_per_rad(self.row(row)))
+            .collect()
     }
 
     /// The view correction g(θ, φ).

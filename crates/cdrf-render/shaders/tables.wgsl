@@ -101,21 +101,11 @@ fn subsurface_gain_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
 
 // The view's azimuth, which the table's photographs never varied (their camera at 90° to the
 // light): light under the surface flows away from the light, and a view along the flow sees
-// more of it (the diffusion approximation's flux term, L ∝ φ − ℓ·∇φ·ω). Relative to the 90°
-// photographs, the view's component along the surface away from the light grows by
-// −(v·l) / sin θ, so the table's value is multiplied by exp(ℓ·a·x) (x = ℓ·a·(−v·l)/sin θ;
-// 1/(1 − x) where x < 0, which darkens less, as the front-lit spheres do): 1 wherever the
-// camera is at 90° to the light. ℓ is the transport mean free path (1 mm for the wax and
-// Skin1); on the shadow side the light that crossed the body flows too, and ℓ grows to
-// ℓ·(1 + SHADOW_FLUX_GAIN·|cos θ|) for a view along the flow. Measured on path-traced spheres
-// lit from behind and beside the camera (docs/shading.md, "The view's azimuth").
-const FLUX_LENGTH_MM: f32 = 1.0;
-const SHADOW_FLUX_GAIN: f32 = 2.4;
-// sin θ is held at this much (θ within 20° of the light or of its opposite, where the azimuth
-// is ill-defined and the table's slope is that of its filled ends).
-const AZIMUTH_MIN_SINE: f32 = 0.35;
-// The exponent's cap (a factor of e² ≈ 7.4).
-const AZIMUTH_LIMIT: f32 = 2.0;
+// more of it. h(x) per channel, x = ℓ·a·(−v·l)/sin θ: e^x, or 1/(1 − x) where x < 0 (gentler, as
+// the spheres lit from beside the camera show); 1 wherever the camera is at 90° to the light.
+// ℓ = FLUX_LENGTH_MM, on the shadow side for views along the flow
+// ℓ·(1 + SHADOW_FLUX_GAIN·|cos θ|). Mirrors cdrf-core's azimuth::factor, whose constants these
+// are (docs/shading.md, "The view's azimuth").
 fn view_azimuth(curvature_per_mm: f32, theta: f32, view_dot_light: f32) -> vec3<f32> {
     if MODEL != MODEL_MEASURED && MODEL != MODEL_GAUSSIAN_LUT {
         return vec3<f32>(1.0);

@@ -1,0 +1,102 @@
+//! The view's azimuth: what a table measured with the camera at 90° to the light misses when
+//! the camera is elsewhere (docs/shading.md, "The view's azimuth").
+//!
+//! Light under the surface flows away from the light; a view along the flow sees more of it.
+//! The diffusion approximation's flux term, L ∝ φ − ℓ·∇φ·ω, gives per channel the factor h(x),
+//! x = ℓ·a·(−v·l)/sin θ, with a = κ·(−∂ ln f/∂θ) how fast f falls along the surface, v·l the
+//! cosine between the view and the light (0 in the photographs: h = 1 there) and ℓ the
+//! transport mean free path. The renderer multiplies the table by it (cdrf-render's
+//! `tables.wgsl` reads these constants); cdrf-fit divides photographs taken at another angle by
+//! it. Measured in docs/research/thick-bodies.md.
+
+use std::f32::consts::PI;
+
+use glam::Vec3;
+
+/// ℓ, mm: the transport mean free path of the wax and of Skin1 (1 mm); on the r = 20 mm wax
+/// sphere lit from behind the fitted value is 0.85–1.07 mm at the terminator.
+pub const FLUX_LENGTH_MM: f32 = 1.0;
+/// On the shadow side light that crossed the body flows too: for a view along the flow ℓ grows
+/// to ℓ·(1 + SHADOW_FLUX_GAIN·|cos θ|) (set on the r = 20 mm wax sphere lit from behind).
+pub const SHADOW_FLUX_GAIN: f32 = 2.4;
+/// sin θ is held at this much within 20° of θ = 0 and π, where the azimuth is ill-defined and a
+/// table's ends are filled rather than measured.
+pub const MIN_SINE: f32 = 0.35;
+/// The exponent's cap (a factor of e² ≈ 7.4).
+pub const EXPONENT_LIMIT: f32 = 2.0;
+/// Half the θ span of [`falloff_per_rad`]'s differences, radians (5°).
+pub const SLOPE_HALF_WIDTH_RAD: f32 = 5.0 * PI / 180.0;
+
+/// −∂ ln f / ∂θ, per radian, of one curve f on `values.len()` uniform θ nodes over [0, π] (at
+/// least two), at least 0: central differences over ±5° (one-sided at the ends), f floored at
+/// 10⁻⁴ of its largest value (a fitted curve's small wiggles and zeros would otherwise show).
+pub fn falloff_per_rad(values: &[Vec3]) -> Vec<Vec3> {
+    let columns = values.len();
+    if columns < 2 {
+        return vec![Vec3::ZERO; columns];
+    }
+    let step = PI / (columns - 1) as f32;
+    let reach = ((SLOPE_HALF_WIDTH_RAD / step).round() as usize).max(1);
+    let floor = values.iter().fold(Vec3::ZERO, |m, v| m.max(*v)) * 1e-4;
+    let ln = |j: usize| {
+        values[j]
+            .max(floor)
+            .max(Vec3::splat(f32::MIN_POSITIVE))
+            .ln()
+    };
+    (0..columns)
+        .map(|j| {
+            let (a, b) = (j.saturating_sub(reach), (j + reach).min(columns - 1));
+            let slope = (ln(b) - ln(a)) / ((b - a) as f32 * step);
+            (-slope).max(Vec3::ZERO)
+        })
+        .collect()
+}
+
+/// h(x) per channel at a point of curvature `curvature_per_mm` (mm⁻¹; none below 0) where f
+/// falls at `falloff_per_rad` ([`falloff_per_rad`]), at `theta_rad` from the light, seen from a
+/// view whose cosine to the light is `view_dot_light`. Mirrors `view_azimuth` in
+/// cdrf-render's tables.wgsl.
+pub fn factor(
+    curvature_per_mm: f32,
+    falloff_per_rad: Vec3,
+    theta_rad: f32,
+    view_dot_light: f32,
+) -> Vec3 {
+    let across = -view_dot_light / theta_rad.sin().max(MIN_SINE);
+    let along_flow = if across >= 0.0 { 1.0 } else { 0.0 };
+    let shadow = (-theta_rad.cos()).max(0.0) * along_flow;
+    let length_mm = FLUX_LENGTH_MM * (1.0 + SHADOW_FLUX_GAIN * shadow);
+    let x = (length_mm * curvature_per_mm.max(0.0) * falloff_per_rad * across)
+        .min(Vec3::splat(EXPONENT_LIMIT));
+    Vec3::select(x.cmpge(Vec3::ZERO), x.exp(), Vec3::ONE / (Vec3::ONE - x))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// At 90° between the view and the light nothing changes; behind brightens, beside the
+    /// camera darkens, and a plane (κ = 0) has no flow.
+    #[test]
+    fn one_at_ninety_degrees_and_on_a_plane() {
+        let falloff = Vec3::new(8.0, 10.0, 12.0);
+        let theta = 95f32.to_radians();
+        assert_eq!(factor(0.05, falloff, theta, 0.0), Vec3::ONE);
+        assert_eq!(factor(0.0, falloff, theta, -0.8), Vec3::ONE);
+        let behind = factor(0.05, falloff, theta, -0.8);
+        let front = factor(0.05, falloff, theta, 0.8);
+        assert!(
+            behind.min_element() > 1.3 && front.max_element() < 0.8,
+            "{behind} {front}"
+        );
+        // Capped.
+        let far = factor(1.0, Vec3::splat(100.0), theta, -1.0);
+        assert!(
+            (far - Vec3::splat(EXPONENT_LIMIT.exp()))
+                .abs()
+                .max_element()
+                < 1e-4
+        );
+    }
+}
