@@ -169,18 +169,19 @@ fn non_local_terms(
     var terms = no_terms();
     terms.visibility = unoccluded / weights;
     if centre_lit && n_along > 0.0 {
+        // The body's own thickness along the light here (T(d, μ) clamps it at 0 too).
         terms.thickness_mm = max(p_depth - centre_column.first_surface_mm, 0.0);
-    }
-    if transmits && centre_lit && n_along > 0.0 {
-        terms.transmission = smoothstep(0.0, THIN_PART_FADE_END, n_along)
-            * thin_part_transmission(
-                centre_column.layer,
-                centre_column.texel,
-                p_depth - centre_column.first_surface_mm,
-                p_depth - centre_expected_mm - centre_tolerance_mm,
-                texel_mm,
-                depth_range_mm,
-            );
+        if transmits {
+            terms.transmission = smoothstep(0.0, THIN_PART_FADE_END, n_along)
+                * thin_part_transmission(
+                    centre_column.layer,
+                    centre_column.texel,
+                    terms.thickness_mm,
+                    p_depth - centre_expected_mm - centre_tolerance_mm,
+                    texel_mm,
+                    depth_range_mm,
+                );
+        }
     }
     if SHADOWS && transmits && counted > lit {
         // Light through the occluders, at their mean thickness and at the entry cosine of the
