@@ -5,27 +5,47 @@
 //! The diffusion approximation's flux term, L ∝ φ − ℓ·∇φ·ω, gives per channel the factor h(x),
 //! x = ℓ·a·(−v·l)/sin θ, with a = κ·(−∂ ln f/∂θ) how fast f falls along the surface, v·l the
 //! cosine between the view and the light (0 in the photographs: h = 1 there) and ℓ the
-//! transport mean free path. The renderer multiplies the table by it (cdrf-render's
-//! `tables.wgsl` reads these constants); cdrf-fit divides photographs taken at another angle by
-//! it. Measured in docs/research/thick-bodies.md.
+//! transport mean free path ([`flux_length_mm`]). The renderer multiplies the table by it
+//! (cdrf-render's `tables.wgsl` reads these constants); cdrf-fit divides photographs taken at
+//! another angle by it. Measured in docs/research/thick-bodies.md and captures.md.
 
 use std::f32::consts::PI;
 
 use glam::Vec3;
 
-/// ℓ, mm: the transport mean free path of the wax and of Skin1 (1 mm); on the r = 20 mm wax
-/// sphere lit from behind the fitted value is 0.85–1.07 mm at the terminator.
+/// ℓ, mm, of a translucent material: the transport mean free path of the wax and of Skin1's red
+/// (1 mm); on the r = 20 mm wax sphere lit from behind the fitted value is 0.85–1.07 mm at the
+/// terminator.
 pub const FLUX_LENGTH_MM: f32 = 1.0;
+/// A diffusion profile whose mean distance is no longer than this is the surface's own: light
+/// that does not travel under the surface does not flow (a Lambertian sphere's fitted profile
+/// sits on cdrf-fit's shortest term, 0.25 mm).
+pub const SURFACE_LENGTH_MM: f32 = 0.25;
 /// On the shadow side light that crossed the body flows too: for a view along the flow ℓ grows
 /// to ℓ·(1 + SHADOW_FLUX_GAIN·|cos θ|) (set on the r = 20 mm wax sphere lit from behind).
 pub const SHADOW_FLUX_GAIN: f32 = 2.4;
 /// sin θ is held at this much within 20° of θ = 0 and π, where the azimuth is ill-defined and a
 /// table's ends are filled rather than measured.
 pub const MIN_SINE: f32 = 0.35;
+/// A view against the flow (x < 0) loses less than a view along it gains: h = 1/(1 − 0.8·x)
+/// there. Set on the path-traced captures with the lamp 53–83° from the camera
+/// (docs/research/captures.md); 1/(1 − x) left their terminators 2–6 % too bright once divided.
+pub const AGAINST_FLOW_SCALE: f32 = 0.8;
 /// The exponent's cap (a factor of e² ≈ 7.4).
 pub const EXPONENT_LIMIT: f32 = 2.0;
 /// Half the θ span of [`falloff_per_rad`]'s differences, radians (5°).
 pub const SLOPE_HALF_WIDTH_RAD: f32 = 5.0 * PI / 180.0;
+
+/// ℓ per channel, mm, for a material whose diffusion profile's mean distance is
+/// `mean_distance_mm` (`DiffusionProfile::mean_distance_mm`): [`FLUX_LENGTH_MM`], less by what
+/// the profile falls short of [`SURFACE_LENGTH_MM`] + ℓ, 0 for an opaque surface. `None` (a
+/// table that does not say how far its light travels) is taken as translucent.
+pub fn flux_length_mm(mean_distance_mm: Option<[f32; 3]>) -> Vec3 {
+    mean_distance_mm.map_or(Vec3::splat(FLUX_LENGTH_MM), |d| {
+        (Vec3::from_array(d) - Vec3::splat(SURFACE_LENGTH_MM))
+            .clamp(Vec3::ZERO, Vec3::splat(FLUX_LENGTH_MM))
+    })
+}
 
 /// −∂ ln f / ∂θ, per radian, of one curve f on `values.len()` uniform θ nodes over [0, π] (at
 /// least two), at least 0: central differences over ±5° (one-sided at the ends), f floored at
@@ -53,23 +73,27 @@ pub fn falloff_per_rad(values: &[Vec3]) -> Vec<Vec3> {
         .collect()
 }
 
-/// h(x) per channel at a point of curvature `curvature_per_mm` (mm⁻¹; none below 0) where f
-/// falls at `falloff_per_rad` ([`falloff_per_rad`]), at `theta_rad` from the light, seen from a
-/// view whose cosine to the light is `view_dot_light`. Mirrors `view_azimuth` in
-/// cdrf-render's tables.wgsl.
+/// h(x) per channel at a point of curvature `curvature_per_mm` (mm⁻¹; none below 0) where the
+/// table's flow is `flow_mm_per_rad` (ℓ·(−∂ ln f/∂θ): [`flux_length_mm`] times
+/// [`falloff_per_rad`]), at `theta_rad` from the light, seen from a view whose cosine to the
+/// light is `view_dot_light`. Mirrors `view_azimuth` in cdrf-render's tables.wgsl.
 pub fn factor(
     curvature_per_mm: f32,
-    falloff_per_rad: Vec3,
+    flow_mm_per_rad: Vec3,
     theta_rad: f32,
     view_dot_light: f32,
 ) -> Vec3 {
     let across = -view_dot_light / theta_rad.sin().max(MIN_SINE);
     let along_flow = if across >= 0.0 { 1.0 } else { 0.0 };
     let shadow = (-theta_rad.cos()).max(0.0) * along_flow;
-    let length_mm = FLUX_LENGTH_MM * (1.0 + SHADOW_FLUX_GAIN * shadow);
-    let x = (length_mm * curvature_per_mm.max(0.0) * falloff_per_rad * across)
+    let growth = 1.0 + SHADOW_FLUX_GAIN * shadow;
+    let x = (growth * curvature_per_mm.max(0.0) * flow_mm_per_rad * across)
         .min(Vec3::splat(EXPONENT_LIMIT));
-    Vec3::select(x.cmpge(Vec3::ZERO), x.exp(), Vec3::ONE / (Vec3::ONE - x))
+    Vec3::select(
+        x.cmpge(Vec3::ZERO),
+        x.exp(),
+        Vec3::ONE / (Vec3::ONE - AGAINST_FLOW_SCALE * x),
+    )
 }
 
 #[cfg(test)]
@@ -80,7 +104,7 @@ mod tests {
     /// camera darkens, and a plane (κ = 0) has no flow.
     #[test]
     fn one_at_ninety_degrees_and_on_a_plane() {
-        let falloff = Vec3::new(8.0, 10.0, 12.0);
+        let falloff = Vec3::new(8.0, 10.0, 12.0) * FLUX_LENGTH_MM;
         let theta = 95f32.to_radians();
         assert_eq!(factor(0.05, falloff, theta, 0.0), Vec3::ONE);
         assert_eq!(factor(0.0, falloff, theta, -0.8), Vec3::ONE);
@@ -97,6 +121,21 @@ mod tests {
                 .abs()
                 .max_element()
                 < 1e-4
+        );
+    }
+
+    /// A translucent profile flows at ℓ, an opaque one (a Lambertian fit's) not at all, and a
+    /// table that does not say is taken as translucent.
+    #[test]
+    fn an_opaque_surface_has_no_flow() {
+        let length = flux_length_mm(Some([3.2, 1.1, SURFACE_LENGTH_MM]));
+        assert_eq!(length.x, FLUX_LENGTH_MM);
+        assert!((length.y - (1.1 - SURFACE_LENGTH_MM)).abs() < 1e-6);
+        assert_eq!(length.z, 0.0);
+        assert_eq!(flux_length_mm(None), Vec3::splat(FLUX_LENGTH_MM));
+        assert_eq!(
+            factor(0.1, length * 0.0, 95f32.to_radians(), 0.8),
+            Vec3::ONE
         );
     }
 }

@@ -505,6 +505,26 @@ impl CdrfLut {
             .collect()
     }
 
+    /// The transport mean free path ℓ per channel, mm, that the view's azimuth uses for this
+    /// material ([`crate::azimuth::flux_length_mm`] of the diffusion profile).
+    pub fn flux_length_mm(&self) -> Vec3 {
+        crate::azimuth::flux_length_mm(
+            self.diffusion_profile
+                .as_ref()
+                .map(DiffusionProfile::mean_distance_mm),
+        )
+    }
+
+    /// ℓ·(−∂ ln f / ∂θ) per texel, mm per radian: [`flux_length_mm`](Self::flux_length_mm)
+    /// times [`falloff_per_rad`](Self::falloff_per_rad), what the view's azimuth reads.
+    pub fn flow_mm_per_rad(&self) -> Vec<Vec3> {
+        let length = self.flux_length_mm();
+        self.falloff_per_rad()
+            .into_iter()
+            .map(|rate| rate * length)
+            .collect()
+    }
+
     /// The view correction g(θ, φ).
     pub fn view_correction(&self) -> &ViewCorrection {
         &self.view_correction

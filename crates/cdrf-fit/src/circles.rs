@@ -237,45 +237,23 @@ fn refine(
         .map(|(e, _)| e.at)
         .collect();
     let (centre, radius) = crate::sphere::fit_circle(&ring, (centre, radius));
-    let sample = |p: DVec2| crate::sphere::bilinear(luma, width, height, p);
-    let points: Vec<DVec2> = ring
+    let directions: Vec<DVec2> = ring
         .iter()
-        .filter_map(|&p| {
-            let direction = (p - centre).normalize_or_zero();
-            if direction == DVec2::ZERO {
-                return None;
-            }
-            let level = |from: f64| {
-                (0..3)
-                    .map(|k| sample(centre + direction * (radius + from + k as f64)))
-                    .sum::<f64>()
-                    / 3.0
-            };
-            let (inner, outer) = (level(-6.0), level(4.0));
-            if (inner - outer).abs() < 0.3 * inner.max(outer) {
-                return None;
-            }
-            let half = (inner + outer) / 2.0;
-            let step = 0.125;
-            let mut previous = (radius - 4.0, sample(centre + direction * (radius - 4.0)));
-            let mut s = radius - 4.0 + step;
-            while s <= radius + 4.0 {
-                let value = sample(centre + direction * s);
-                if (previous.1 - half) * (value - half) <= 0.0 && previous.1 != value {
-                    let t = (previous.1 - half) / (previous.1 - value);
-                    return Some(centre + direction * (previous.0 + t * step));
-                }
-                previous = (s, value);
-                s += step;
-            }
-            None
-        })
+        .filter_map(|&p| (p - centre).try_normalize())
         .collect();
+    let points = crossings(luma, width, height, (centre, radius), &directions);
     let (centre, radius, points) = if points.len() >= 12 {
         let (c, r) = crate::sphere::fit_circle(&points, (centre, radius));
         (c, r, points)
     } else {
         (centre, radius, ring)
+    };
+    // Then every direction around that circle (see `around_circle`).
+    let (centre, radius, points) = match around_circle(luma, width, height, (centre, radius)) {
+        Some((c, r, all)) if all.len() as f64 >= MIN_COVERAGE * std::f64::consts::TAU * r => {
+            (c, r, all)
+        }
+        _ => (centre, radius, points),
     };
     let rms = (points
         .iter()
@@ -291,4 +269,105 @@ fn refine(
         edge_points: points.iter().map(|p| p.as_vec2()).collect::<Vec<Vec2>>(),
         rms_residual_px: rms as f32,
     }
+}
+
+/// The circle refitted to the crossings (see [`crossings`]) in every direction around it, one
+/// per pixel of its circumference: a noisy shadow side keeps few edges, and on a partial arc
+/// the centre slides along it (0.5 px on the 14-bit r = 30 mm capture). Crossings off the
+/// circle (a stand, a cup's rim, a terminator near the limb) are left out. `None` below 12.
+pub(crate) fn around_circle(
+    luma: &[f32],
+    width: usize,
+    height: usize,
+    (centre, radius): (DVec2, f64),
+) -> Option<(DVec2, f64, Vec<DVec2>)> {
+    let count = (std::f64::consts::TAU * radius).ceil().max(12.0) as usize;
+    let around: Vec<DVec2> = (0..count)
+        .map(|i| DVec2::from_angle(std::f64::consts::TAU * i as f64 / count as f64))
+        .collect();
+    let all = crossings(luma, width, height, (centre, radius), &around);
+    if all.len() < 12 {
+        return None;
+    }
+    // Fitted to the crossings within 2, then 1, then ½ px of the circle so far: an inner
+    // terminator or a stand's edge is steeper than a faint silhouette and would pull a plain fit.
+    let mut circle = (centre, radius);
+    let mut kept = Vec::new();
+    for window_px in [2.0, 1.0, 0.5, 0.5] {
+        kept = all
+            .iter()
+            .copied()
+            .filter(|p| ((*p - circle.0).length() - circle.1).abs() <= window_px)
+            .collect();
+        if kept.len() < 12 {
+            return None;
+        }
+        circle = crate::sphere::fit_circle(&kept, circle);
+    }
+    let (c, r) = circle;
+    Some((c, r, kept))
+}
+
+/// Along each of `directions` from the circle's centre, the silhouette: the steepest step of the
+/// luminance within ±4 px of the circle, where the levels 4–6 px inside and outside differ by
+/// at least 30 %, then the halfway crossing between the levels 2.5–3 px either side of that
+/// step. Levels read that close barely move where the disk darkens toward its limb (halfway
+/// between levels 6 px apart was 1.7 px inside on a 32 px sphere lit from near the camera).
+pub(crate) fn crossings(
+    luma: &[f32],
+    width: usize,
+    height: usize,
+    (centre, radius): (DVec2, f64),
+    directions: &[DVec2],
+) -> Vec<DVec2> {
+    const STEP_PX: f64 = 0.125;
+    const REACH_PX: f64 = 4.0;
+    let sample = |p: DVec2| crate::sphere::bilinear(luma, width, height, p);
+    directions
+        .iter()
+        .filter_map(|&direction| {
+            let at = |s: f64| sample(centre + direction * s);
+            let level = |from: f64| (0..3).map(|k| at(radius + from + k as f64)).sum::<f64>() / 3.0;
+            let (inner, outer) = (level(-6.0), level(4.0));
+            // (NaN levels fail the comparison too.)
+            let contrast = (inner - outer).abs();
+            if contrast.is_nan() || contrast < 0.3 * inner.max(outer) {
+                return None;
+            }
+            let falling = (inner - outer).signum();
+            // The slope over ±0.5 px, signed so that the expected edge is positive.
+            let slope = |s: f64| falling * (at(s - 0.5) - at(s + 0.5));
+            let steps = (2.0 * REACH_PX / STEP_PX) as usize;
+            let (best, peak) = (0..=steps)
+                .map(|i| radius - REACH_PX + i as f64 * STEP_PX)
+                .map(|s| (s, slope(s)))
+                .max_by(|a, b| a.1.total_cmp(&b.1))?;
+            if peak.is_nan() || peak <= 0.0 {
+                return None;
+            }
+            // Then the halfway crossing between the levels 2.5–3 px either side of that step:
+            // close enough that a disk darkening toward its limb barely moves it.
+            let side = |sign: f64| {
+                [2.5, 2.75, 3.0]
+                    .map(|d| at(best + sign * d))
+                    .iter()
+                    .sum::<f64>()
+                    / 3.0
+            };
+            let (near_in, near_out) = (side(-1.0), side(1.0));
+            let half = (near_in + near_out) / 2.0;
+            let mut previous = (best - 2.0, at(best - 2.0));
+            let mut s = best - 2.0 + STEP_PX;
+            while s <= best + 2.0 {
+                let value = at(s);
+                if (previous.1 - half) * (value - half) <= 0.0 && previous.1 != value {
+                    let t = (previous.1 - half) / (previous.1 - value);
+                    return Some(centre + direction * (previous.0 + t * STEP_PX));
+                }
+                previous = (s, value);
+                s += STEP_PX;
+            }
+            None
+        })
+        .collect()
 }

@@ -8,7 +8,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::curves::{CurveFit, CurveFits, CurveSettings, SphereSamples, fit_curves};
+use crate::curves::{CurveFit, CurveFits, CurveSettings, SphereSamples, ViewModel, fit_curves};
 use crate::dataset::Dataset;
 use crate::diffusion::{
     DiffusionFit, DiffusionFitError, DiffusionSettings, fit_diffusion_curve_fit,
@@ -247,7 +247,8 @@ pub struct Fit {
     /// The chosen fit's curves as they entered the table (filled and smoothed along θ), per
     /// sphere.
     pub table_curves: Vec<Vec<Vec3>>,
-    /// The samples, per sphere (input order).
+    /// The samples, per sphere (input order); where a camera was not at 90° to the light, as a
+    /// camera there would have seen them (the view's azimuth divided out).
     pub samples: Vec<SphereSamples>,
     /// What happened to each sphere.
     pub spheres: Vec<SphereReport>,
@@ -300,19 +301,108 @@ pub fn fit_dataset(
     })
 }
 
+/// Refits after dividing the view's azimuth out: each pass reads the flow from the last fit.
+const AZIMUTH_PASSES: usize = 2;
+
+/// The view model the photographs can separate from f: the θ-dependent correction c(θ, φ)
+/// needs θ and φ to vary independently across the disk, as with the camera at 90° to the
+/// light. With the lamp nearer the camera than 75° (median |v·l| above 0.25) they move
+/// together, c absorbs part of f, and the fit takes the poster's g(φ) alone (on the
+/// several-sphere capture, lamp 53–62° from the camera, c(θ, φ) swung the blue lit side of the
+/// 10 mm sphere by 10 % for a 0.4 px change of its circle).
+fn identifiable(settings: CurveSettings, samples: &[SphereSamples]) -> CurveSettings {
+    let mut cosines: Vec<f32> = samples
+        .iter()
+        .flat_map(|sphere| sphere.samples.iter().map(|s| s.view_dot_light.abs()))
+        .collect();
+    if cosines.is_empty() {
+        return settings;
+    }
+    let middle = cosines.len() / 2;
+    let (_, median, _) = cosines.select_nth_unstable_by(middle, f32::total_cmp);
+    if *median > 0.25 {
+        CurveSettings {
+            view_model: ViewModel::Phi,
+            ..settings
+        }
+    } else {
+        settings
+    }
+}
+
+/// Whether any photograph's camera is more than about 1° from 90° to the light.
+fn seen_off_right_angle(samples: &[SphereSamples]) -> bool {
+    samples
+        .iter()
+        .flat_map(|sphere| &sphere.samples)
+        .any(|sample| sample.view_dot_light.abs() > 0.02)
+}
+
+/// The samples as a camera at 90° to the light would have seen them, which is what a table
+/// holds and the renderer's view azimuth starts from (`cdrf_core::azimuth`): each divided by
+/// the factor at its own θ and view, with ℓ·(−∂ ln f/∂θ) (`flows`, per sphere on the curves' θ
+/// nodes) from the curves fitted so far.
+fn divide_view_azimuth(photographed: &[SphereSamples], flows: &[Vec<Vec3>]) -> Vec<SphereSamples> {
+    photographed
+        .iter()
+        .zip(flows)
+        .map(|(sphere, flow)| {
+            let last = flow.len().saturating_sub(1).max(1);
+            let flow_at = |theta: f32| {
+                let u = (theta / std::f32::consts::PI * last as f32).clamp(0.0, last as f32);
+                let i = (u as usize).min(last - 1);
+                flow[i].lerp(flow[(i + 1).min(flow.len() - 1)], u - i as f32)
+            };
+            let mut out = sphere.clone();
+            for sample in &mut out.samples {
+                sample.radiance /= cdrf_core::azimuth::factor(
+                    sphere.curvature_per_mm,
+                    flow_at(sample.theta_rad),
+                    sample.theta_rad,
+                    sample.view_dot_light,
+                );
+            }
+            out
+        })
+        .collect()
+}
+
 /// The fit from already sampled spheres (what [`fit_dataset`] does after reading images).
 ///
 /// # Errors
 /// When the table cannot be built or the Gaussian fit fails. A transmission profile that cannot
 /// be fitted is no error: [`Fit::transmission`] says why and the table has no translucency.
 pub fn fit_samples(
-    samples: Vec<SphereSamples>,
+    mut samples: Vec<SphereSamples>,
     mut spheres: Vec<SphereReport>,
     options: &FitOptions,
     mut timings: Timings,
 ) -> Result<Fit, FitError> {
     let started = Instant::now();
-    let curves = fit_curves(&samples, options.curves);
+    let settings = identifiable(options.curves, &samples);
+    let mut curves = fit_curves(&samples, settings);
+    if seen_off_right_angle(&samples) {
+        let photographed = samples.clone();
+        let curvatures: Vec<f32> = samples.iter().map(|s| s.curvature_per_mm).collect();
+        for _ in 0..AZIMUTH_PASSES {
+            // ℓ from the profile of the curves so far (0 for an opaque material).
+            let length = cdrf_core::azimuth::flux_length_mm(
+                fit_diffusion_curve_fit(&curves.chosen, &curvatures, &options.diffusion)
+                    .ok()
+                    .map(|fit| fit.profile.mean_distance_mm()),
+            );
+            let flows: Vec<Vec<Vec3>> = (0..samples.len())
+                .map(|k| {
+                    cdrf_core::azimuth::falloff_per_rad(&smooth_curve(&curves.chosen, k))
+                        .into_iter()
+                        .map(|rate| rate * length)
+                        .collect()
+                })
+                .collect();
+            samples = divide_view_azimuth(&photographed, &flows);
+            curves = fit_curves(&samples, settings);
+        }
+    }
     timings.curves_s = started.elapsed().as_secs_f64();
     for (report, outliers) in spheres.iter_mut().zip(&curves.chosen.outliers) {
         report.outliers = *outliers;

@@ -127,7 +127,7 @@ fn run(args: Args) -> anyhow::Result<()> {
                 .join(", "),
             fit.timings.total_s,
             fit.timings.decode_s,
-            view_model_name(options.curves.view_model),
+            view_model_name(fit.curves.chosen.settings.view_model),
         );
         eprintln!(
             "radius  measured error  Gaussian error   (mean relative, lit + terminator, 8×8 px blocks)"

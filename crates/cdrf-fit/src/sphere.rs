@@ -228,6 +228,16 @@ pub fn detect_sphere(
     } else {
         (circle, inliers)
     };
+    // On black the halfway crossing above is exact. Against a lit wall or a table the threshold
+    // keeps only part of the ring (a noisy shadow side falls below it) and the background is
+    // not 0: refit to the whole ring where it stands out from its surround.
+    let (circle, points) = match on_black(&blurred, width, height, circle, p99) {
+        true => (circle, points),
+        false => match crate::circles::around_circle(&blurred, width, height, circle) {
+            Some((c, r, all)) if all.len() >= min_inliers => ((c, r), all),
+            _ => (circle, points),
+        },
+    };
     let rms = (points
         .iter()
         .map(|p| ((*p - circle.0).length() - circle.1).powi(2))
@@ -248,6 +258,24 @@ pub fn detect_sphere(
         edge_points: points.iter().map(|p| p.as_vec2()).collect(),
         rms_residual_px: rms as f32,
     })
+}
+
+/// Whether the ring 5–8 px outside `circle` is black: its median below 10⁻³ of the bright level.
+fn on_black(luma: &[f32], width: usize, height: usize, circle: (DVec2, f64), bright: f32) -> bool {
+    let mut ring: Vec<f64> = (0..256)
+        .flat_map(|i| {
+            let direction = DVec2::from_angle(std::f64::consts::TAU * f64::from(i) / 256.0);
+            [5.0, 6.5, 8.0]
+                .map(|d| bilinear(luma, width, height, circle.0 + direction * (circle.1 + d)))
+        })
+        .filter(|v| v.is_finite())
+        .collect();
+    if ring.is_empty() {
+        return true;
+    }
+    let middle = ring.len() / 2;
+    let (_, median, _) = ring.select_nth_unstable_by(middle, f64::total_cmp);
+    *median <= 1e-3 * f64::from(bright)
 }
 
 /// Mean over each pixel's 3 × 3 neighbourhood (clipped at the image border).
@@ -566,6 +594,9 @@ pub struct Sample {
     pub phi_rad: f32,
     /// π·L/E per channel.
     pub radiance: Vec3,
+    /// Cosine between the view and the light at this point (0 with the camera at 90° to the
+    /// light, as in the bundled photographs): the view's azimuth the fit divides out.
+    pub view_dot_light: f32,
     /// Pixel index (row-major) in its image.
     pub pixel: u32,
 }
@@ -632,6 +663,7 @@ pub fn sample_sphere(
                 theta_rad: point.normal.dot(to_light).clamp(-1.0, 1.0).acos(),
                 phi_rad: point.normal.dot(point.to_camera).clamp(-1.0, 1.0).acos(),
                 radiance: value * std::f32::consts::PI / irradiance,
+                view_dot_light: point.to_camera.dot(to_light),
                 pixel: index as u32,
             });
         }

@@ -79,10 +79,11 @@ fn table_value(curvature_per_mm: f32, theta: f32, near_field: bool) -> vec3<f32>
     );
 }
 
-// a(κ, θ) = κ · (−∂ ln f / ∂θ), per mm: how fast f falls along the surface away from the
-// light. −∂ ln f / ∂θ (cdrf-core's CdrfLut::falloff_per_rad) is lut_and_near_field's third
-// block; κ is the point's own, so a plane (κ = 0, below the table's axis) has no flow.
-fn surface_falloff_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
+// ℓ·a(κ, θ) = ℓ·κ·(−∂ ln f / ∂θ), no unit: how fast f falls along the surface away from the
+// light, per transport mean free path ℓ. ℓ·(−∂ ln f / ∂θ) (cdrf-core's
+// CdrfLut::flow_mm_per_rad, ℓ per channel and 0 for an opaque table) is lut_and_near_field's
+// third block; κ is the point's own, so a plane (κ = 0, below the table's axis) has no flow.
+fn surface_flow_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
     let at = lut_coordinates(curvature_per_mm, theta);
     let rows = material.lut_size.y;
     return max(curvature_per_mm, 0.0) * read_bilinear(
@@ -101,9 +102,10 @@ fn subsurface_gain_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
 
 // The view's azimuth, which the table's photographs never varied (their camera at 90° to the
 // light): light under the surface flows away from the light, and a view along the flow sees
-// more of it. h(x) per channel, x = ℓ·a·(−v·l)/sin θ: e^x, or 1/(1 − x) where x < 0 (gentler, as
-// the spheres lit from beside the camera show); 1 wherever the camera is at 90° to the light.
-// ℓ = FLUX_LENGTH_MM, on the shadow side for views along the flow
+// more of it. h(x) per channel, x = ℓ·a·(−v·l)/sin θ: e^x, or 1/(1 − AGAINST_FLOW_SCALE·x) where
+// x < 0 (gentler, as the spheres lit from beside the camera show); 1 wherever the camera is at
+// 90° to the light.
+// ℓ the material's (in the table's third block), on the shadow side for views along the flow
 // ℓ·(1 + SHADOW_FLUX_GAIN·|cos θ|). Mirrors cdrf-core's azimuth::factor, whose constants these
 // are (docs/shading.md, "The view's azimuth").
 fn view_azimuth(curvature_per_mm: f32, theta: f32, view_dot_light: f32) -> vec3<f32> {
@@ -112,7 +114,7 @@ fn view_azimuth(curvature_per_mm: f32, theta: f32, view_dot_light: f32) -> vec3<
     }
     let across = -view_dot_light / max(sin(theta), AZIMUTH_MIN_SINE);
     let shadow = max(-cos(theta), 0.0) * step(0.0, across);
-    let length_mm = FLUX_LENGTH_MM * (1.0 + SHADOW_FLUX_GAIN * shadow);
-    let x = min(length_mm * surface_falloff_value(curvature_per_mm, theta) * across, vec3<f32>(AZIMUTH_LIMIT));
-    return select(1.0 / (1.0 - x), exp(x), x >= vec3<f32>(0.0));
+    let growth = 1.0 + SHADOW_FLUX_GAIN * shadow;
+    let x = min(growth * surface_flow_value(curvature_per_mm, theta) * across, vec3<f32>(AZIMUTH_LIMIT));
+    return select(1.0 / (1.0 - AGAINST_FLOW_SCALE * x), exp(x), x >= vec3<f32>(0.0));
 }

@@ -338,7 +338,7 @@ impl MaterialFactory {
                     Some(tables) => rows.extend_from_slice(&tables.near),
                     None => rows.extend_from_slice(lut.radiance()),
                 }
-                rows.extend(lut.falloff_per_rad());
+                rows.extend(lut.flow_mm_per_rad());
                 self.upload_table(
                     device,
                     queue,

@@ -66,10 +66,10 @@ pub fn wgsl_constants() -> String {
     }
     // The view's azimuth (cdrf-core's azimuth module; tables.wgsl's view_azimuth).
     for (name, value) in [
-        ("FLUX_LENGTH_MM", cdrf_core::azimuth::FLUX_LENGTH_MM),
         ("SHADOW_FLUX_GAIN", cdrf_core::azimuth::SHADOW_FLUX_GAIN),
         ("AZIMUTH_MIN_SINE", cdrf_core::azimuth::MIN_SINE),
         ("AZIMUTH_LIMIT", cdrf_core::azimuth::EXPONENT_LIMIT),
+        ("AGAINST_FLOW_SCALE", cdrf_core::azimuth::AGAINST_FLOW_SCALE),
     ] {
         wgsl.push_str(&format!("const {name}: f32 = {value:?};\n"));
     }

@@ -15,6 +15,17 @@ pub fn synthetic_sphere(
     radius_mm: f32,
     keep: impl Fn(f32) -> bool,
 ) -> SphereSamples {
+    synthetic_sphere_lit_from(model, g, radius_mm, Vec3::new(-1.0, 0.0, 0.0), keep)
+}
+
+/// [`synthetic_sphere`] lit from `to_light` (camera space, unit; the camera looks along −z).
+pub fn synthetic_sphere_lit_from(
+    model: &impl Cdrf,
+    g: impl Fn(f32) -> Vec3,
+    radius_mm: f32,
+    to_light: Vec3,
+    keep: impl Fn(f32) -> bool,
+) -> SphereSamples {
     let view = SphereView::new(
         Circle {
             center_px: Vec2::splat(256.0),
@@ -24,7 +35,6 @@ pub fn synthetic_sphere(
         512,
         512,
     );
-    let to_light = Vec3::new(-1.0, 0.0, 0.0);
     let mut samples = Vec::new();
     for row in 0..512 {
         for column in 0..512 {
@@ -43,6 +53,7 @@ pub fn synthetic_sphere(
                 theta_rad: theta,
                 phi_rad: phi,
                 radiance: Vec3::from_array(model.reflectance(1.0 / radius_mm, theta)) * g(phi),
+                view_dot_light: point.to_camera.dot(to_light),
                 pixel: (row * 512 + column) as u32,
             });
         }
