@@ -73,6 +73,15 @@ pub fn falloff_per_rad(values: &[Vec3]) -> Vec<Vec3> {
         .collect()
 }
 
+/// ℓ·(−∂ ln f / ∂θ), mm per radian, of one curve (as [`falloff_per_rad`]) for a material of
+/// transport mean free path `length_mm` per channel ([`flux_length_mm`]): what [`factor`] reads.
+pub fn flow_mm_per_rad(values: &[Vec3], length_mm: Vec3) -> Vec<Vec3> {
+    falloff_per_rad(values)
+        .into_iter()
+        .map(|rate| rate * length_mm)
+        .collect()
+}
+
 /// h(x) per channel at a point of curvature `curvature_per_mm` (mm⁻¹; none below 0) where the
 /// table's flow is `flow_mm_per_rad` (ℓ·(−∂ ln f/∂θ): [`flux_length_mm`] times
 /// [`falloff_per_rad`]), at `theta_rad` from the light, seen from a view whose cosine to the

@@ -519,9 +519,8 @@ impl CdrfLut {
     /// times [`falloff_per_rad`](Self::falloff_per_rad), what the view's azimuth reads.
     pub fn flow_mm_per_rad(&self) -> Vec<Vec3> {
         let length = self.flux_length_mm();
-        self.falloff_per_rad()
-            .into_iter()
-            .map(|rate| rate * length)
+        (0..self.curvature_axis.count)
+            .flat_map(|row| crate::azimuth::flow_mm_per_rad(self.row(row), length))
             .collect()
     }
 

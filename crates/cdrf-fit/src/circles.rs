@@ -10,10 +10,12 @@
 //!    of every radius it could lie on (a gradient Hough transform);
 //! 3. radii: around each strong centre, the radius whose ring has the largest share of its
 //!    circumference on radially pointing edges; a circle needs at least a quarter of its ring;
-//! 4. the best non-overlapping circles are refined to sub-pixel: along the radius through each
-//!    ring edge, where the luminance crosses halfway between the levels just inside and just
-//!    outside (with a box pixel filter that is the true edge when the radiance is flat across
-//!    it), then a geometric least-squares circle through those points.
+//! 4. the best non-overlapping circles are refined to sub-pixel: in each direction around the
+//!    circle, the steepest step of the luminance within ±4 px, then the halfway crossing between
+//!    the levels 2.5–3 px either side of it ([`crossings`]); a geometric least-squares circle
+//!    through the crossings on the detected ring edges, then through those in every direction
+//!    that lie within 2, 1, ½ px of it ([`around_circle`]), so that a stand, a cup's rim or a
+//!    terminator near the limb drops out.
 //!
 //! Straight edges (a table's, a post's) vote along lines and make no strong centre; the
 //! terminator inside a sphere is a soft gradient that the threshold does not keep.
@@ -281,6 +283,11 @@ pub(crate) fn around_circle(
     height: usize,
     (centre, radius): (DVec2, f64),
 ) -> Option<(DVec2, f64, Vec<DVec2>)> {
+    if !(centre.is_finite() && radius.is_finite() && radius > 0.0)
+        || radius > width.max(height) as f64
+    {
+        return None;
+    }
     let count = (std::f64::consts::TAU * radius).ceil().max(12.0) as usize;
     let around: Vec<DVec2> = (0..count)
         .map(|i| DVec2::from_angle(std::f64::consts::TAU * i as f64 / count as f64))
@@ -322,6 +329,9 @@ pub(crate) fn crossings(
 ) -> Vec<DVec2> {
     const STEP_PX: f64 = 0.125;
     const REACH_PX: f64 = 4.0;
+    if !(centre.is_finite() && radius.is_finite()) || radius > (width + height) as f64 {
+        return Vec::new();
+    }
     let sample = |p: DVec2| crate::sphere::bilinear(luma, width, height, p);
     directions
         .iter()
@@ -356,18 +366,37 @@ pub(crate) fn crossings(
             };
             let (near_in, near_out) = (side(-1.0), side(1.0));
             let half = (near_in + near_out) / 2.0;
-            let mut previous = (best - 2.0, at(best - 2.0));
-            let mut s = best - 2.0 + STEP_PX;
-            while s <= best + 2.0 {
-                let value = at(s);
-                if (previous.1 - half) * (value - half) <= 0.0 && previous.1 != value {
-                    let t = (previous.1 - half) / (previous.1 - value);
-                    return Some(centre + direction * (previous.0 + t * STEP_PX));
-                }
-                previous = (s, value);
-                s += STEP_PX;
-            }
-            None
+            crossing(at, (best - 2.0, best + 2.0), half, |before, after| {
+                (before - half) * (after - half) <= 0.0 && before != after
+            })
+            .map(|s| centre + direction * s)
         })
         .collect()
+}
+
+/// Along a line read by `at`, from `span.0` to `span.1` in steps of ⅛ px, the first place where
+/// two consecutive readings `crosses(before, after)`, placed by linear interpolation where the
+/// line meets `level`. `None` when nothing crosses or the span is not finite.
+pub(crate) fn crossing(
+    at: impl Fn(f64) -> f64,
+    span: (f64, f64),
+    level: f64,
+    crosses: impl Fn(f64, f64) -> bool,
+) -> Option<f64> {
+    const STEP_PX: f64 = 0.125;
+    if !(span.0.is_finite() && span.1.is_finite()) {
+        return None;
+    }
+    let steps = ((span.1 - span.0) / STEP_PX).floor().clamp(0.0, 1e4) as usize;
+    let mut previous = (span.0, at(span.0));
+    for i in 1..=steps {
+        let s = span.0 + i as f64 * STEP_PX;
+        let value = at(s);
+        if crosses(previous.1, value) {
+            let t = (previous.1 - level) / (previous.1 - value);
+            return Some(previous.0 + t * STEP_PX);
+        }
+        previous = (s, value);
+    }
+    None
 }

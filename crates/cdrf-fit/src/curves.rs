@@ -137,6 +137,25 @@ fn hat(values: &[Vec3], (i, t): Hat) -> Vec3 {
     values[i] * (1.0 - t) + values[i + 1] * t
 }
 
+/// A curve given on uniform θ nodes over [0, π] (at least two), read linearly at `theta_rad`.
+pub(crate) fn on_theta_nodes(values: &[Vec3], theta_rad: f32) -> Vec3 {
+    hat(
+        values,
+        hat_coordinate(theta_rad, std::f32::consts::PI, values.len()),
+    )
+}
+
+/// The median of `values` (the upper of the middle two for an even count; reorders them);
+/// `None` when empty.
+pub(crate) fn median(values: &mut [f32]) -> Option<f32> {
+    if values.is_empty() {
+        return None;
+    }
+    let middle = values.len() / 2;
+    let (_, m, _) = values.select_nth_unstable_by(middle, f32::total_cmp);
+    Some(*m)
+}
+
 /// Bilinear coordinates on the coarse correction grid.
 #[derive(Clone, Copy, Debug)]
 struct Coarse {
@@ -355,9 +374,9 @@ fn reweight_points(
                     if values.len() < 16 {
                         continue;
                     }
-                    let middle = values.len() / 2;
-                    let (_, median, _) = values.select_nth_unstable_by(middle, f32::total_cmp);
-                    noise[band][c] = (1.4826 * *median).max(2e-3);
+                    if let Some(median) = median(values) {
+                        noise[band][c] = (1.4826 * median).max(2e-3);
+                    }
                 }
             }
             for p in sphere_points.iter_mut() {

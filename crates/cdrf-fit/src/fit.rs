@@ -8,7 +8,9 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::curves::{CurveFit, CurveFits, CurveSettings, SphereSamples, ViewModel, fit_curves};
+use crate::curves::{
+    self, CurveFit, CurveFits, CurveSettings, SphereSamples, ViewModel, fit_curves, median,
+};
 use crate::dataset::Dataset;
 use crate::diffusion::{
     DiffusionFit, DiffusionFitError, DiffusionSettings, fit_diffusion_curve_fit,
@@ -306,8 +308,9 @@ const AZIMUTH_PASSES: usize = 2;
 
 /// The view model the photographs can separate from f: the θ-dependent correction c(θ, φ)
 /// needs θ and φ to vary independently across the disk, as with the camera at 90° to the
-/// light. With the lamp nearer the camera than 75° (median |v·l| above 0.25) they move
-/// together, c absorbs part of f, and the fit takes the poster's g(φ) alone (on the
+/// light. With the lamp more than about 15° from 90° to the camera, either side (median |v·l|
+/// above 0.25), they move together, c absorbs part of f, and the fit takes the poster's g(φ)
+/// alone, whatever the settings asked for (on the
 /// several-sphere capture, lamp 53–62° from the camera, c(θ, φ) swung the blue lit side of the
 /// 10 mm sphere by 10 % for a 0.4 px change of its circle).
 fn identifiable(settings: CurveSettings, samples: &[SphereSamples]) -> CurveSettings {
@@ -315,12 +318,7 @@ fn identifiable(settings: CurveSettings, samples: &[SphereSamples]) -> CurveSett
         .iter()
         .flat_map(|sphere| sphere.samples.iter().map(|s| s.view_dot_light.abs()))
         .collect();
-    if cosines.is_empty() {
-        return settings;
-    }
-    let middle = cosines.len() / 2;
-    let (_, median, _) = cosines.select_nth_unstable_by(middle, f32::total_cmp);
-    if *median > 0.25 {
+    if median(&mut cosines).is_some_and(|m| m > 0.25) {
         CurveSettings {
             view_model: ViewModel::Phi,
             ..settings
@@ -347,17 +345,11 @@ fn divide_view_azimuth(photographed: &[SphereSamples], flows: &[Vec<Vec3>]) -> V
         .iter()
         .zip(flows)
         .map(|(sphere, flow)| {
-            let last = flow.len().saturating_sub(1).max(1);
-            let flow_at = |theta: f32| {
-                let u = (theta / std::f32::consts::PI * last as f32).clamp(0.0, last as f32);
-                let i = (u as usize).min(last - 1);
-                flow[i].lerp(flow[(i + 1).min(flow.len() - 1)], u - i as f32)
-            };
             let mut out = sphere.clone();
             for sample in &mut out.samples {
                 sample.radiance /= cdrf_core::azimuth::factor(
                     sphere.curvature_per_mm,
-                    flow_at(sample.theta_rad),
+                    curves::on_theta_nodes(flow, sample.theta_rad),
                     sample.theta_rad,
                     sample.view_dot_light,
                 );
@@ -393,10 +385,7 @@ pub fn fit_samples(
             );
             let flows: Vec<Vec<Vec3>> = (0..samples.len())
                 .map(|k| {
-                    cdrf_core::azimuth::falloff_per_rad(&smooth_curve(&curves.chosen, k))
-                        .into_iter()
-                        .map(|rate| rate * length)
-                        .collect()
+                    cdrf_core::azimuth::flow_mm_per_rad(&smooth_curve(&curves.chosen, k), length)
                 })
                 .collect();
             samples = divide_view_azimuth(&photographed, &flows);

@@ -9,6 +9,7 @@
 //! that α, plus one bin, is dropped — the lobe's tails with its core, never only the brightest
 //! pixels, which would leave a bias the size of the tails.
 
+use crate::curves::median;
 use crate::sphere::Sample;
 
 /// Lit-side pixels only: a highlight needs the light on the surface.
@@ -80,13 +81,4 @@ pub fn reject_highlights(
     let before = samples.len();
     samples.retain(|s| s.theta_rad.to_degrees() >= MAX_THETA_DEG || half_angle_deg(s) >= limit);
     before - samples.len()
-}
-
-fn median(values: &mut [f32]) -> Option<f32> {
-    if values.is_empty() {
-        return None;
-    }
-    let middle = values.len() / 2;
-    let (_, m, _) = values.select_nth_unstable_by(middle, f32::total_cmp);
-    Some(*m)
 }

@@ -38,7 +38,8 @@ struct Args {
     #[arg(long, value_name = "OUTDIR")]
     out: PathBuf,
     /// View correction: the poster's g(φ) shared by all radii, or g(φ) times a smooth
-    /// θ-dependent correction (lower residual on translucent materials).
+    /// θ-dependent correction (lower residual on translucent materials; taken only where the
+    /// lamp is within about 15° of 90° to the camera, else g(φ) alone).
     #[arg(long, value_enum, default_value_t = ViewModelArg::ThetaPhi)]
     view_model: ViewModelArg,
     /// Columns of the table over θ ∈ [0°, 180°] (361 = 0.5° apart), 19…3601.

@@ -12,7 +12,10 @@
 //!    filter that is where the true edge is, if the radiance is flat near the edge) and fit a
 //!    circle to those points by geometric least squares. Where the radiance falls toward the
 //!    limb (a sphere lit from the camera's direction) the crossing lies up to ~1 px inside; a
-//!    side-lit sphere, the measurement setup, is found to within a few hundredths of a pixel.
+//!    side-lit sphere, the measurement setup, is found to within a few hundredths of a pixel;
+//! 4. off black (a wall or a table around the sphere: the ring just outside is not dark) the
+//!    threshold keeps only part of the ring and the background is not 0, so the circle is
+//!    refitted to the whole ring ([`crate::circles`]'s silhouette crossings).
 //!
 //! # Geometry
 //! Pixel `(i, j)` (row 0 at the top) has its centre at continuous coordinates
@@ -205,22 +208,13 @@ pub fn detect_sphere(
                 return None;
             }
             let half = inner_level / 2.0;
-            let step = 0.125;
-            let mut previous = (
-                circle.1 - 3.0,
-                sample(circle.0 + direction * (circle.1 - 3.0)),
-            );
-            let mut s = circle.1 - 3.0 + step;
-            while s <= circle.1 + 3.0 {
-                let value = sample(circle.0 + direction * s);
-                if previous.1 >= half && value < half {
-                    let t = (previous.1 - half) / (previous.1 - value);
-                    return Some(circle.0 + direction * (previous.0 + t * step));
-                }
-                previous = (s, value);
-                s += step;
-            }
-            None
+            crate::circles::crossing(
+                |s| sample(circle.0 + direction * s),
+                (circle.1 - 3.0, circle.1 + 3.0),
+                half,
+                |before, after| before >= half && after < half,
+            )
+            .map(|s| circle.0 + direction * s)
         })
         .collect();
     let (circle, points) = if edges.len() >= min_inliers {
@@ -228,6 +222,12 @@ pub fn detect_sphere(
     } else {
         (circle, inliers)
     };
+    if !(circle.0.is_finite() && circle.1.is_finite() && circle.1 > 0.0) {
+        return Err(DetectionError::NoCircle {
+            inliers: 0,
+            boundary: boundary.len(),
+        });
+    }
     // On black the halfway crossing above is exact. Against a lit wall or a table the threshold
     // keeps only part of the ring (a noisy shadow side falls below it) and the background is
     // not 0: refit to the whole ring where it stands out from its surround.
@@ -244,12 +244,6 @@ pub fn detect_sphere(
         .sum::<f64>()
         / points.len() as f64)
         .sqrt();
-    if !(circle.0.is_finite() && circle.1.is_finite() && circle.1 > 0.0) {
-        return Err(DetectionError::NoCircle {
-            inliers: 0,
-            boundary: boundary.len(),
-        });
-    }
     Ok(Detection {
         circle: Circle {
             center_px: circle.0.as_vec2(),
@@ -262,20 +256,16 @@ pub fn detect_sphere(
 
 /// Whether the ring 5–8 px outside `circle` is black: its median below 10⁻³ of the bright level.
 fn on_black(luma: &[f32], width: usize, height: usize, circle: (DVec2, f64), bright: f32) -> bool {
-    let mut ring: Vec<f64> = (0..256)
+    let mut ring: Vec<f32> = (0..256)
         .flat_map(|i| {
             let direction = DVec2::from_angle(std::f64::consts::TAU * f64::from(i) / 256.0);
-            [5.0, 6.5, 8.0]
-                .map(|d| bilinear(luma, width, height, circle.0 + direction * (circle.1 + d)))
+            [5.0, 6.5, 8.0].map(|d| {
+                bilinear(luma, width, height, circle.0 + direction * (circle.1 + d)) as f32
+            })
         })
         .filter(|v| v.is_finite())
         .collect();
-    if ring.is_empty() {
-        return true;
-    }
-    let middle = ring.len() / 2;
-    let (_, median, _) = ring.select_nth_unstable_by(middle, f64::total_cmp);
-    *median <= 1e-3 * f64::from(bright)
+    crate::curves::median(&mut ring).is_none_or(|median| median <= 1e-3 * bright)
 }
 
 /// Mean over each pixel's 3 × 3 neighbourhood (clipped at the image border).

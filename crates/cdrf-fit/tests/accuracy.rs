@@ -326,10 +326,10 @@ fn a_camera_off_ninety_degrees_gives_the_same_table() {
                     Vec3::from_array(truth.reflectance(kappa, theta))
                 })
                 .collect();
-            let flow: Vec<Vec3> = cdrf_core::azimuth::falloff_per_rad(&curve)
-                .into_iter()
-                .map(|rate| rate * cdrf_core::azimuth::FLUX_LENGTH_MM)
-                .collect();
+            let flow = cdrf_core::azimuth::flow_mm_per_rad(
+                &curve,
+                Vec3::splat(cdrf_core::azimuth::FLUX_LENGTH_MM),
+            );
             let mut sphere = synthetic_sphere_lit_from(&truth, g, r, to_light, |_| true);
             for sample in &mut sphere.samples {
                 let j = (sample.theta_rad / std::f32::consts::PI * (columns - 1) as f32).round();
