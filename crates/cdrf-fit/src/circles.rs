@@ -12,9 +12,9 @@
 //!    circumference on radially pointing edges; a circle needs at least a quarter of its ring;
 //! 4. the best non-overlapping circles are refined to sub-pixel: in each direction around the
 //!    circle, the steepest step of the luminance within ±4 px, then the halfway crossing between
-//!    the levels 2.5–3 px either side of it ([`crossings`]); a geometric least-squares circle
+//!    the levels 2.5–3 px either side of it (`crossings`); a geometric least-squares circle
 //!    through the crossings on the detected ring edges, then through those in every direction
-//!    that lie within 2, 1, ½ px of it ([`around_circle`]), so that a stand, a cup's rim or a
+//!    that lie within 2, 1, ½ px of it (`around_circle`), so that a stand, a cup's rim or a
 //!    terminator near the limb drops out.
 //!
 //! Straight edges (a table's, a post's) vote along lines and make no strong centre; the
