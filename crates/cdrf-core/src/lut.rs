@@ -494,17 +494,6 @@ impl CdrfLut {
         &self.radiance[row * self.theta_count..(row + 1) * self.theta_count]
     }
 
-    /// How fast f falls with θ, per radian: −∂ ln f / ∂θ per texel (row-major as
-    /// [`radiance`](Self::radiance)), at least 0; times κ, how fast it falls along the surface
-    /// away from the light, per mm. The light under the surface flows that way, and a view along
-    /// the flow sees more of it (the view's azimuth, which the table's spheres, lit at 90° to the
-    /// camera, never varied). Per row, [`crate::azimuth::falloff_per_rad`].
-    pub fn falloff_per_rad(&self) -> Vec<Vec3> {
-        (0..self.curvature_axis.count)
-            .flat_map(|row| crate::azimuth::falloff_per_rad(self.row(row)))
-            .collect()
-    }
-
     /// The transport mean free path ℓ per channel, mm, that the view's azimuth uses for this
     /// material ([`crate::azimuth::flux_length_mm`] of the diffusion profile).
     pub fn flux_length_mm(&self) -> Vec3 {
@@ -515,8 +504,12 @@ impl CdrfLut {
         )
     }
 
-    /// ℓ·(−∂ ln f / ∂θ) per texel, mm per radian: [`flux_length_mm`](Self::flux_length_mm)
-    /// times [`falloff_per_rad`](Self::falloff_per_rad), what the view's azimuth reads.
+    /// ℓ·(−∂ ln f / ∂θ) per texel (row-major as [`radiance`](Self::radiance)), mm per radian:
+    /// [`flux_length_mm`](Self::flux_length_mm) times how fast f falls with θ, at least 0
+    /// (per row, [`crate::azimuth::flow_mm_per_rad`]); times κ, how far f falls along the surface
+    /// per ℓ. The light under the surface flows away from the light, and a view along the flow
+    /// sees more of it (the view's azimuth, which the table's spheres, lit at 90° to the camera,
+    /// never varied).
     pub fn flow_mm_per_rad(&self) -> Vec<Vec3> {
         let length = self.flux_length_mm();
         (0..self.curvature_axis.count)

@@ -1,7 +1,9 @@
-//! `CdrfLut::falloff_per_rad`: −∂ ln f / ∂θ, the rate the view's azimuth term reads.
+//! `CdrfLut::flow_mm_per_rad`: ℓ·(−∂ ln f / ∂θ), the rate the view's azimuth term reads. These
+//! tables carry no diffusion profile, so ℓ is `FLUX_LENGTH_MM` in every channel.
 
 use std::f32::consts::PI;
 
+use cdrf_core::azimuth::FLUX_LENGTH_MM;
 use cdrf_core::glam::Vec3;
 use cdrf_core::{CdrfLut, CurvatureAxis};
 
@@ -15,15 +17,15 @@ fn table(f: impl Fn(f32) -> Vec3) -> CdrfLut {
     CdrfLut::new(axis, COLUMNS, radiance).unwrap()
 }
 
-/// f = exp(−θ/w) per channel: ln f is linear, so the rate is 1/w at every θ, ends included
+/// f = exp(−θ/w) per channel: ln f is linear, so the rate is ℓ/w at every θ, ends included
 /// (the widths keep f above the floor of 10⁻⁴ of its largest value up to θ = π).
 #[test]
 fn an_exponential_falls_at_one_over_its_width() {
     let widths = Vec3::new(0.9, 0.6, 0.4);
     let lut = table(|theta| (-Vec3::splat(theta) / widths).exp());
-    let falloff = lut.falloff_per_rad();
+    let falloff = lut.flow_mm_per_rad();
     assert_eq!(falloff.len(), lut.curvature_axis().count * COLUMNS);
-    let expected = Vec3::ONE / widths;
+    let expected = FLUX_LENGTH_MM / widths;
     for (i, rate) in falloff.iter().enumerate() {
         let error = ((*rate - expected) / expected).abs().max_element();
         assert!(error < 1e-3, "texel {i}: {rate} against {expected}");
@@ -35,9 +37,9 @@ fn an_exponential_falls_at_one_over_its_width() {
 #[test]
 fn the_rate_is_never_negative_and_always_finite() {
     let rising = table(|theta| Vec3::splat(1.0 + theta));
-    assert!(rising.falloff_per_rad().iter().all(|r| *r == Vec3::ZERO));
+    assert!(rising.flow_mm_per_rad().iter().all(|r| *r == Vec3::ZERO));
     let dark = table(|theta| Vec3::splat(theta.cos().max(0.0)));
-    let rates = dark.falloff_per_rad();
+    let rates = dark.flow_mm_per_rad();
     assert!(
         rates
             .iter()

@@ -251,18 +251,9 @@ fn refine(
         (centre, radius, ring)
     };
     // Then every direction around that circle (see `around_circle`).
-    let (centre, radius, points) = match around_circle(luma, width, height, (centre, radius)) {
-        Some((c, r, all)) if all.len() as f64 >= MIN_COVERAGE * std::f64::consts::TAU * r => {
-            (c, r, all)
-        }
-        _ => (centre, radius, points),
-    };
-    let rms = (points
-        .iter()
-        .map(|p| ((*p - centre).length() - radius).powi(2))
-        .sum::<f64>()
-        / points.len().max(1) as f64)
-        .sqrt();
+    let (centre, radius, points) =
+        around_circle(luma, width, height, (centre, radius)).unwrap_or((centre, radius, points));
+    let rms = crate::sphere::rms_residual_px(&points, (centre, radius));
     Detection {
         circle: Circle {
             center_px: centre.as_vec2(),
@@ -276,7 +267,9 @@ fn refine(
 /// The circle refitted to the crossings (see [`crossings`]) in every direction around it, one
 /// per pixel of its circumference: a noisy shadow side keeps few edges, and on a partial arc
 /// the centre slides along it (0.5 px on the 14-bit r = 30 mm capture). Crossings off the
-/// circle (a stand, a cup's rim, a terminator near the limb) are left out. `None` below 12.
+/// circle (a stand, a cup's rim, a terminator near the limb) are left out. `None` where fewer
+/// than a quarter of the directions (and fewer than 12) keep a crossing, as a detected circle
+/// needs a quarter of its ring.
 pub(crate) fn around_circle(
     luma: &[f32],
     width: usize,
@@ -312,7 +305,8 @@ pub(crate) fn around_circle(
         circle = crate::sphere::fit_circle(&kept, circle);
     }
     let (c, r) = circle;
-    Some((c, r, kept))
+    (kept.len() as f64 >= (MIN_COVERAGE * std::f64::consts::TAU * r).max(12.0))
+        .then_some((c, r, kept))
 }
 
 /// Along each of `directions` from the circle's centre, the silhouette: the steepest step of the
@@ -327,7 +321,6 @@ pub(crate) fn crossings(
     (centre, radius): (DVec2, f64),
     directions: &[DVec2],
 ) -> Vec<DVec2> {
-    const STEP_PX: f64 = 0.125;
     const REACH_PX: f64 = 4.0;
     if !(centre.is_finite() && radius.is_finite()) || radius > (width + height) as f64 {
         return Vec::new();
@@ -347,9 +340,9 @@ pub(crate) fn crossings(
             let falling = (inner - outer).signum();
             // The slope over ±0.5 px, signed so that the expected edge is positive.
             let slope = |s: f64| falling * (at(s - 0.5) - at(s + 0.5));
-            let steps = (2.0 * REACH_PX / STEP_PX) as usize;
+            let steps = (2.0 * REACH_PX / SCAN_STEP_PX) as usize;
             let (best, peak) = (0..=steps)
-                .map(|i| radius - REACH_PX + i as f64 * STEP_PX)
+                .map(|i| radius - REACH_PX + i as f64 * SCAN_STEP_PX)
                 .map(|s| (s, slope(s)))
                 .max_by(|a, b| a.1.total_cmp(&b.1))?;
             if peak.is_nan() || peak <= 0.0 {
@@ -374,6 +367,9 @@ pub(crate) fn crossings(
         .collect()
 }
 
+/// The step of the sub-pixel scans along a radius, pixels.
+const SCAN_STEP_PX: f64 = 0.125;
+
 /// Along a line read by `at`, from `span.0` to `span.1` in steps of ⅛ px, the first place where
 /// two consecutive readings `crosses(before, after)`, placed by linear interpolation where the
 /// line meets `level`. `None` when nothing crosses or the span is not finite.
@@ -383,18 +379,17 @@ pub(crate) fn crossing(
     level: f64,
     crosses: impl Fn(f64, f64) -> bool,
 ) -> Option<f64> {
-    const STEP_PX: f64 = 0.125;
     if !(span.0.is_finite() && span.1.is_finite()) {
         return None;
     }
-    let steps = ((span.1 - span.0) / STEP_PX).floor().clamp(0.0, 1e4) as usize;
+    let steps = ((span.1 - span.0) / SCAN_STEP_PX).floor().clamp(0.0, 1e4) as usize;
     let mut previous = (span.0, at(span.0));
     for i in 1..=steps {
-        let s = span.0 + i as f64 * STEP_PX;
+        let s = span.0 + i as f64 * SCAN_STEP_PX;
         let value = at(s);
         if crosses(previous.1, value) {
             let t = (previous.1 - level) / (previous.1 - value);
-            return Some(previous.0 + t * STEP_PX);
+            return Some(previous.0 + t * SCAN_STEP_PX);
         }
         previous = (s, value);
     }

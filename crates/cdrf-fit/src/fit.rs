@@ -310,9 +310,9 @@ const AZIMUTH_PASSES: usize = 2;
 /// needs θ and φ to vary independently across the disk, as with the camera at 90° to the
 /// light. With the lamp more than about 15° from 90° to the camera, either side (median |v·l|
 /// above 0.25), they move together, c absorbs part of f, and the fit takes the poster's g(φ)
-/// alone, whatever the settings asked for (on the
-/// several-sphere capture, lamp 53–62° from the camera, c(θ, φ) swung the blue lit side of the
-/// 10 mm sphere by 10 % for a 0.4 px change of its circle).
+/// alone, whatever the settings asked for (on the several-sphere capture, lamp 53–62° from the
+/// camera, c(θ, φ) swung the blue lit side of the 10 mm sphere by 10 % for a 0.4 px change of
+/// its circle).
 fn identifiable(settings: CurveSettings, samples: &[SphereSamples]) -> CurveSettings {
     let mut cosines: Vec<f32> = samples
         .iter()
@@ -371,11 +371,11 @@ pub fn fit_samples(
     mut timings: Timings,
 ) -> Result<Fit, FitError> {
     let started = Instant::now();
+    let curvatures: Vec<f32> = samples.iter().map(|s| s.curvature_per_mm).collect();
     let settings = identifiable(options.curves, &samples);
     let mut curves = fit_curves(&samples, settings);
     if seen_off_right_angle(&samples) {
         let photographed = samples.clone();
-        let curvatures: Vec<f32> = samples.iter().map(|s| s.curvature_per_mm).collect();
         for _ in 0..AZIMUTH_PASSES {
             // ℓ from the profile of the curves so far (0 for an opaque material).
             let length = cdrf_core::azimuth::flux_length_mm(
@@ -398,7 +398,6 @@ pub fn fit_samples(
     }
 
     let started = Instant::now();
-    let curvatures: Vec<f32> = samples.iter().map(|s| s.curvature_per_mm).collect();
     let table_curves: Vec<Vec<Vec3>> = (0..samples.len())
         .map(|k| smooth_curve(&curves.chosen, k))
         .collect();

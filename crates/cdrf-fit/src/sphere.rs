@@ -234,16 +234,11 @@ pub fn detect_sphere(
     let (circle, points) = match on_black(&blurred, width, height, circle, p99) {
         true => (circle, points),
         false => match crate::circles::around_circle(&blurred, width, height, circle) {
-            Some((c, r, all)) if all.len() >= min_inliers => ((c, r), all),
-            _ => (circle, points),
+            Some((c, r, all)) => ((c, r), all),
+            None => (circle, points),
         },
     };
-    let rms = (points
-        .iter()
-        .map(|p| ((*p - circle.0).length() - circle.1).powi(2))
-        .sum::<f64>()
-        / points.len() as f64)
-        .sqrt();
+    let rms = rms_residual_px(&points, circle);
     Ok(Detection {
         circle: Circle {
             center_px: circle.0.as_vec2(),
@@ -252,6 +247,16 @@ pub fn detect_sphere(
         edge_points: points.iter().map(|p| p.as_vec2()).collect(),
         rms_residual_px: rms as f32,
     })
+}
+
+/// The root mean square of the points' distances from the circle, pixels (0 for no points).
+pub(crate) fn rms_residual_px(points: &[DVec2], (centre, radius): (DVec2, f64)) -> f64 {
+    (points
+        .iter()
+        .map(|p| ((*p - centre).length() - radius).powi(2))
+        .sum::<f64>()
+        / points.len().max(1) as f64)
+        .sqrt()
 }
 
 /// Whether the ring 5–8 px outside `circle` is black: its median below 10⁻³ of the bright level.

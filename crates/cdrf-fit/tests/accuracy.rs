@@ -248,6 +248,41 @@ fn leaving_one_radius_out_still_reproduces_it() {
     }
 }
 
+/// Fit options with the poster's view correction g(φ) alone.
+fn poster_view_options() -> FitOptions {
+    FitOptions {
+        curves: CurveSettings {
+            view_model: ViewModel::Phi,
+            ..CurveSettings::default()
+        },
+        ..FitOptions::default()
+    }
+}
+
+/// The largest relative error of the fitted table against the `truth` at each of `radii` and
+/// each whole degree of θ in `degrees`, per channel, where the truth is above 1 % of its scale.
+fn worst_table_error(
+    fit: &Fit,
+    truth: &GaussianCdrf,
+    radii: &[f32],
+    degrees: std::ops::RangeInclusive<u32>,
+) -> f32 {
+    let mut worst = 0.0_f32;
+    for &r in radii {
+        for degree in degrees.clone() {
+            let theta = (degree as f32).to_radians();
+            let expected = Vec3::from_array(truth.reflectance(1.0 / r, theta));
+            let found = fit.lut.sample(1.0 / r, theta, Filter::Bilinear);
+            for c in 0..3 {
+                if expected[c] > 1e-2 * truth.scale()[c] {
+                    worst = worst.max((found[c] / expected[c] - 1.0).abs());
+                }
+            }
+        }
+    }
+    worst
+}
+
 #[test]
 fn synthetic_truth_is_fitted_back_within_half_a_percent() {
     let truth = GaussianCdrf::with_scale([9.0, 6.0, 4.0], [0.9, 0.85, 0.8]).unwrap();
@@ -258,29 +293,11 @@ fn synthetic_truth_is_fitted_back_within_half_a_percent() {
         .map(|&r| synthetic_sphere(&truth, g, r, |_| true))
         .collect();
     let reports = Vec::new();
-    let options = FitOptions {
-        curves: CurveSettings {
-            view_model: ViewModel::Phi,
-            ..CurveSettings::default()
-        },
-        ..FitOptions::default()
-    };
+    let options = poster_view_options();
     let fit = fit_samples(samples, reports, &options, Timings::default()).unwrap();
 
     // f at every sphere's curvature, over the θ the photographs cover, where it is not tiny.
-    let mut worst_f = 0.0_f32;
-    for &r in &radii {
-        for degrees in 15..=165 {
-            let theta = (degrees as f32).to_radians();
-            let expected = Vec3::from_array(truth.reflectance(1.0 / r, theta));
-            let found = fit.lut.sample(1.0 / r, theta, Filter::Bilinear);
-            for c in 0..3 {
-                if expected[c] > 1e-2 * truth.scale()[c] {
-                    worst_f = worst_f.max((found[c] / expected[c] - 1.0).abs());
-                }
-            }
-        }
-    }
+    let worst_f = worst_table_error(&fit, &truth, &radii, 15..=165);
     let mut worst_g = 0.0_f32;
     let axis = fit.lut.curvature_axis();
     for degrees in 0..=80 {
@@ -343,27 +360,9 @@ fn a_camera_off_ninety_degrees_gives_the_same_table() {
             sphere
         })
         .collect();
-    let options = FitOptions {
-        curves: CurveSettings {
-            view_model: ViewModel::Phi,
-            ..CurveSettings::default()
-        },
-        ..FitOptions::default()
-    };
+    let options = poster_view_options();
     let fit = fit_samples(samples, Vec::new(), &options, Timings::default()).unwrap();
-    let mut worst = 0.0_f32;
-    for &r in &radii {
-        for degrees in 20..=110 {
-            let theta = (degrees as f32).to_radians();
-            let expected = Vec3::from_array(truth.reflectance(1.0 / r, theta));
-            let found = fit.lut.sample(1.0 / r, theta, Filter::Bilinear);
-            for c in 0..3 {
-                if expected[c] > 1e-2 * truth.scale()[c] {
-                    worst = worst.max((found[c] / expected[c] - 1.0).abs());
-                }
-            }
-        }
-    }
+    let worst = worst_table_error(&fit, &truth, &radii, 20..=110);
     println!(
         "camera 60° from the light: worst relative error of f {:.2} %",
         100.0 * worst
@@ -375,13 +374,7 @@ fn a_camera_off_ninety_degrees_gives_the_same_table() {
 fn one_sphere_gives_a_curvature_independent_table() {
     let truth = GaussianCdrf::new([6.0, 6.0, 6.0]).unwrap();
     let sphere = synthetic_sphere(&truth, |_| Vec3::ONE, 25.0, |_| true);
-    let options = FitOptions {
-        curves: CurveSettings {
-            view_model: ViewModel::Phi,
-            ..CurveSettings::default()
-        },
-        ..FitOptions::default()
-    };
+    let options = poster_view_options();
     let fit = fit_samples(vec![sphere], Vec::new(), &options, Timings::default()).unwrap();
     assert_eq!(fit.lut.curvature_axis().count, 1);
     let at = |k: f32| fit.lut.sample(k, 1.7, Filter::Bilinear);

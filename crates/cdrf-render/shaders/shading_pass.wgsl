@@ -215,4 +215,3 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     }
     return vec4<f32>(radiance, 1.0);
 }
-

@@ -66,17 +66,22 @@ fn view_value(curvature_per_mm: f32, theta: f32, phi: f32) -> vec3<f32> {
     return mix(a, b, layer - below);
 }
 
-// f(κ, θ), or its near field f − F_sphere, from lut_and_near_field (as lut_value: the row
-// coordinate is clamped to its half, so filtering never mixes the two).
-fn table_value(curvature_per_mm: f32, theta: f32, near_field: bool) -> vec3<f32> {
+// Block `block` of lut_and_near_field at (κ, θ): 0 the LUT, 1 its near field, 2 the flow (as
+// lut_value: the row coordinate is clamped to its block, so filtering never mixes two).
+fn lut_block_value(curvature_per_mm: f32, theta: f32, block: f32) -> vec3<f32> {
     let at = lut_coordinates(curvature_per_mm, theta);
     let rows = material.lut_size.y;
     return read_bilinear(
         lut_and_near_field,
         at.x,
-        at.y + select(0.0, rows, near_field),
+        at.y + block * rows,
         vec2<f32>(material.lut_size.x, 3.0 * rows),
     );
+}
+
+// f(κ, θ), or its near field f − F_sphere.
+fn table_value(curvature_per_mm: f32, theta: f32, near_field: bool) -> vec3<f32> {
+    return lut_block_value(curvature_per_mm, theta, select(0.0, 1.0, near_field));
 }
 
 // ℓ·a(κ, θ) = ℓ·κ·(−∂ ln f / ∂θ), no unit: how fast f falls along the surface away from the
@@ -84,14 +89,7 @@ fn table_value(curvature_per_mm: f32, theta: f32, near_field: bool) -> vec3<f32>
 // CdrfLut::flow_mm_per_rad, ℓ per channel and 0 for an opaque table) is lut_and_near_field's
 // third block; κ is the point's own, so a plane (κ = 0, below the table's axis) has no flow.
 fn surface_flow_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
-    let at = lut_coordinates(curvature_per_mm, theta);
-    let rows = material.lut_size.y;
-    return max(curvature_per_mm, 0.0) * read_bilinear(
-        lut_and_near_field,
-        at.x,
-        at.y + 2.0 * rows,
-        vec2<f32>(material.lut_size.x, 3.0 * rows),
-    );
+    return max(curvature_per_mm, 0.0) * lut_block_value(curvature_per_mm, theta, 2.0);
 }
 
 // s(κ, θ) on the LUT's axes (as lut_value).

@@ -132,4 +132,3 @@ fn vertex_non_local(
     }
     return terms;
 }
-
