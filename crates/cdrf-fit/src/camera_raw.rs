@@ -34,7 +34,7 @@ use rawler::tags::TiffCommonTag;
 
 use rawler::rawsource::RawSource;
 
-use crate::image_io::{ColorSpace, ImageError, LinearImage, SampleFormat};
+use crate::image_io::{CodeStep, ColorSpace, ImageError, LinearImage, SampleFormat};
 
 /// Linear sRGB (Rec. 709 primaries, D65) → CIE XYZ.
 const SRGB_TO_XYZ: Mat3 = Mat3::from_cols(
@@ -323,6 +323,13 @@ fn develop(path: &Path, raw: &RawImage, exposure: f32) -> Result<LinearImage, Im
         saturated,
         sample_format: SampleFormat::Raw,
         color_space: ColorSpace::Linear,
+        // One raw code over the narrowest range (white balance and the colour matrix mix
+        // channels, but keep white at white).
+        code_step: CodeStep::Linear {
+            step: exposure
+                / (white - black.iter().copied().fold(f32::NEG_INFINITY, f32::max)).max(1e-6),
+            lossy: false,
+        },
     })
 }
 

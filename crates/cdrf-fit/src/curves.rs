@@ -93,6 +93,9 @@ pub struct CurveFit {
     pub node_samples: Vec<Vec<f32>>,
     /// Relative noise per θ node per sphere (robust, from residuals).
     pub node_noise: Vec<Vec<Vec3>>,
+    /// Relative bias bound per θ node per sphere from the files' codes ([`code_bias_bound`]),
+    /// pooled over the node's samples with their hat weights (0 where filled).
+    pub node_systematic: Vec<Vec<Vec3>>,
     /// The poster's g(φ) on the φ nodes, g(0) = 1.
     pub g_phi: Vec<Vec3>,
     /// c_k(θ, φ) per sphere (input order) on the coarse grid (row-major, θ rows), when fitted.
@@ -213,6 +216,10 @@ struct Point {
     outlier: glam::BVec3,
     /// 10° θ band, for the noise estimate.
     band: u8,
+    /// See [`Sample::code_step`].
+    code_step: Vec3,
+    /// See [`Sample::lossy`].
+    lossy: bool,
 }
 
 const BANDS: usize = 18;
@@ -250,6 +257,8 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
                     weight: Vec3::ONE,
                     outlier: glam::BVec3::FALSE,
                     band: ((s.theta_rad.to_degrees() / 10.0) as usize).min(BANDS - 1) as u8,
+                    code_step: s.code_step,
+                    lossy: s.lossy,
                 })
                 .collect()
         })
@@ -260,6 +269,7 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
         curves: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
         node_samples: vec![vec![0.0; settings.theta_count]; spheres.len()],
         node_noise: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
+        node_systematic: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
         g_phi: vec![Vec3::ONE; settings.phi_count],
         correction: None,
         outliers: vec![0; spheres.len()],
@@ -315,18 +325,50 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
     }
 }
 
-/// Fills in the per-node sample counts, noise and outlier counts.
+/// Fills in the per-node sample counts, noise, systematic bounds and outlier counts.
 fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> CurveFit {
     let theta_count = fit.settings.theta_count;
     for (k, sphere_points) in points.iter().enumerate() {
         fit.outliers[k] = sphere_points.iter().filter(|p| p.outlier.any()).count();
         let mut counts = vec![0.0_f32; theta_count];
+        let model_at =
+            |p: &Point| hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(k, &p.basis);
+        // Absolute noise per band (what dithers the codes; the relative noise is floored).
+        let mut deviations: Vec<[Vec<f32>; 3]> = vec![Default::default(); BANDS];
+        for p in sphere_points.iter().filter(|p| !p.outlier.any()) {
+            let residual = (p.radiance - model_at(p)).abs();
+            for c in 0..3 {
+                deviations[p.band as usize][c].push(residual[c]);
+            }
+        }
+        let sigma: Vec<Vec3> = deviations
+            .iter_mut()
+            .map(|channels| {
+                Vec3::from_array(std::array::from_fn(|c| {
+                    median(&mut channels[c]).map_or(0.0, |m| 1.4826 * m)
+                }))
+            })
+            .collect();
+        // Σ hat · bound and Σ hat · |model| per node: their ratio is the relative bound.
+        let mut bound = vec![Vec3::ZERO; theta_count];
+        let mut model = vec![Vec3::ZERO; theta_count];
         for p in sphere_points {
             let (a, t) = p.basis.theta;
             let a = a as usize;
             counts[a] += 1.0 - t;
             counts[a + 1] += t;
+            let m = model_at(p).abs();
+            let b = code_bias_bound(p.code_step, sigma[p.band as usize], p.lossy);
+            for (node, w) in [(a, 1.0 - t), (a + 1, t)] {
+                bound[node] += w * b;
+                model[node] += w * m;
+            }
         }
+        fit.node_systematic[k] = bound
+            .iter()
+            .zip(&model)
+            .map(|(b, m)| Vec3::select(m.cmpgt(Vec3::ZERO), *b / *m, Vec3::ZERO))
+            .collect();
         fit.node_samples[k] = counts;
         fit.node_noise[k] = (0..theta_count)
             .map(|a| {
@@ -337,6 +379,31 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
             .collect();
     }
     fit
+}
+
+/// How far a file's codes can have moved a value, per channel, no matter how many pixels are
+/// averaged: rounding's half step, which a noise of `sigma` (same units) dithers away as
+/// `exp(−2π²(σ/step)²)` (the first harmonic of the rounding error under Gaussian noise), and
+/// for a lossy file half a step more of compression, which noise does not remove.
+pub fn code_bias_bound(step: Vec3, sigma: Vec3, lossy: bool) -> Vec3 {
+    let dithered = |step: f32, sigma: f32| {
+        if step > 0.0 {
+            let s = sigma / step;
+            0.5 * step * (-2.0 * std::f32::consts::PI.powi(2) * s * s).exp()
+        } else {
+            0.0
+        }
+    };
+    let rounding = Vec3::new(
+        dithered(step.x, sigma.x),
+        dithered(step.y, sigma.y),
+        dithered(step.z, sigma.z),
+    );
+    if lossy {
+        rounding + 0.5 * step
+    } else {
+        rounding
+    }
 }
 
 /// Re-estimates each band's relative noise from the residuals and sets inverse-variance
@@ -581,4 +648,29 @@ fn solve_dense<const N: usize>(matrix: Vec<[Vec3; N]>, rhs: Vec<Vec3>) -> Option
         }
     }
     Some(solution)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn code_bias_is_half_a_step_without_noise_and_dithered_away_with_it() {
+        let step = Vec3::splat(0.01);
+        // Noiseless lossless codes: rounding's half step is all bias.
+        assert_eq!(code_bias_bound(step, Vec3::ZERO, false), step * 0.5);
+        // A noise of one step dithers rounding away (e^(−2π²) ≈ 3e-9).
+        assert!(code_bias_bound(step, step, false).max_element() < 1e-9);
+        // A quarter step leaves e^(−π²/8) ≈ 0.29 of it.
+        let quarter = code_bias_bound(step, step * 0.25, false).x / (0.5 * step.x);
+        assert!((quarter - (-std::f32::consts::PI.powi(2) / 8.0).exp()).abs() < 1e-4);
+        // JPEG's compression stays, noise or not.
+        assert!(
+            (code_bias_bound(step, step, true) - step * 0.5)
+                .abs()
+                .max_element()
+                < 1e-9
+        );
+        assert_eq!(code_bias_bound(Vec3::ZERO, Vec3::ZERO, true), Vec3::ZERO);
+    }
 }

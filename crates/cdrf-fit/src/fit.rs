@@ -347,12 +347,14 @@ fn divide_view_azimuth(photographed: &[SphereSamples], flows: &[Vec<Vec3>]) -> V
         .map(|(sphere, flow)| {
             let mut out = sphere.clone();
             for sample in &mut out.samples {
-                sample.radiance /= cdrf_core::azimuth::factor(
+                let factor = cdrf_core::azimuth::factor(
                     sphere.curvature_per_mm,
                     curves::on_theta_nodes(flow, sample.theta_rad),
                     sample.theta_rad,
                     sample.view_dot_light,
                 );
+                sample.radiance /= factor;
+                sample.code_step /= factor;
             }
             out
         })
@@ -501,37 +503,71 @@ pub fn fit_samples(
 /// The band [`noisy_ranges`] warns above: ±10 %.
 pub const NOISY_BAND: f32 = 0.1;
 
-/// Half-width of the 95 % confidence band of sphere `k`'s curve f(θ) at each θ node, relative
-/// to it: 1.96 · σ / √n, with σ the node's relative per-pixel noise (robust, from the fit's
-/// residuals) and n its effective pixel count — what a bootstrap over the pixels gives when
-/// their noise is independent. `None` where the node was filled, not measured.
-pub fn confidence_95(fit: &CurveFit, k: usize) -> Vec<Option<f32>> {
+/// A θ node's 95 % confidence band, relative to the curve: a noise part that shrinks as
+/// pixels add up, and a systematic part that does not.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NodeBand {
+    /// 1.96 · σ / √n, with σ the node's relative per-pixel noise (robust, from the fit's
+    /// residuals) and n its effective pixel count — what a bootstrap over the pixels gives when
+    /// their noise is independent.
+    pub noise: f32,
+    /// What the files' codes can have shifted the curve by, relative
+    /// ([`crate::curves::code_bias_bound`]): where the sensor's noise is smaller than a code
+    /// (a noiseless or an 8-bit file's dark end) rounding, and JPEG's compression anywhere,
+    /// bias every pixel alike.
+    pub systematic: f32,
+}
+
+impl NodeBand {
+    /// The band's half-width, relative: noise and systematic parts added.
+    pub fn half_width(self) -> f32 {
+        self.noise + self.systematic
+    }
+
+    /// The band of an average over `bands`: the noise parts pool like independent
+    /// measurements (inverse variances add), the systematic parts average with the same weights.
+    pub fn pool(bands: impl IntoIterator<Item = NodeBand>) -> Option<NodeBand> {
+        let (mut information, mut systematic) = (0.0_f32, 0.0_f32);
+        for band in bands {
+            let weight = 1.0 / (band.noise * band.noise).max(1e-12);
+            information += weight;
+            systematic += weight * band.systematic;
+        }
+        (information > 0.0).then(|| NodeBand {
+            noise: information.sqrt().recip(),
+            systematic: systematic / information,
+        })
+    }
+}
+
+/// Sphere `k`'s 95 % band at each θ node; `None` where the node was filled, not measured.
+pub fn confidence_95(fit: &CurveFit, k: usize) -> Vec<Option<NodeBand>> {
     fit.node_samples[k]
         .iter()
         .zip(&fit.node_noise[k])
-        .map(|(&n, noise)| (n >= 1.0).then(|| 1.96 * noise.max_element() / n.sqrt()))
+        .zip(&fit.node_systematic[k])
+        .map(|((&n, noise), systematic)| {
+            (n >= 1.0).then(|| NodeBand {
+                noise: 1.96 * noise.max_element() / n.sqrt(),
+                systematic: systematic.max_element(),
+            })
+        })
         .collect()
 }
 
 /// The θ ranges (degrees, from the node angles `theta_deg`) where the band, pooled over ±1°
 /// (the table's curves are smoothed over about that), is wider than `limit`; ranges less than
 /// 5° apart are merged.
-pub fn noisy_ranges(band: &[Option<f32>], theta_deg: &[f32], limit: f32) -> Vec<[f32; 2]> {
+pub fn noisy_ranges(band: &[Option<NodeBand>], theta_deg: &[f32], limit: f32) -> Vec<[f32; 2]> {
     let step = theta_deg.get(1).map_or(1.0, |t| t - theta_deg[0]).max(1e-3);
     let half = (1.0 / step).round().max(0.0) as usize;
     let pooled = |i: usize| {
-        // Pool inverse variances: 1/b² adds up like a pixel count.
         let window = &band[i.saturating_sub(half)..(i + half + 1).min(band.len())];
-        let information: f32 = window
-            .iter()
-            .flatten()
-            .map(|b| 1.0 / (b * b).max(1e-12))
-            .sum();
-        (information > 0.0).then(|| information.sqrt().recip())
+        NodeBand::pool(window.iter().flatten().copied())
     };
     let mut ranges: Vec<[f32; 2]> = Vec::new();
     for (i, &theta) in theta_deg.iter().enumerate() {
-        if band[i].is_none() || !pooled(i).is_some_and(|b| b > limit) {
+        if band[i].is_none() || !pooled(i).is_some_and(|b| b.half_width() > limit) {
             continue;
         }
         match ranges.last_mut() {

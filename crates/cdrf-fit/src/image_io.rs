@@ -153,6 +153,82 @@ pub struct LinearImage {
     pub sample_format: SampleFormat,
     /// The transfer curve that was decoded (the requested one, or the format's default).
     pub color_space: ColorSpace,
+    /// How wide one of the file's codes is in these linear units.
+    pub code_step: CodeStep,
+}
+
+/// How a file's integer codes round its values, in its decoded linear units (exposure included).
+///
+/// Rounding to codes shifts a value by up to half a step; a sensor noise of more than about
+/// half a step dithers that away over many pixels, a noiseless image keeps it. JPEG's
+/// compression shifts values by about as much again, noise or not. The fit counts both as
+/// bias in its confidence band ([`crate::fit::NodeBand`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CodeStep {
+    /// Float samples: no step worth counting.
+    Float,
+    /// Linear codes, every step `step` wide.
+    Linear {
+        /// The width of one code.
+        step: f32,
+        /// A lossy file (JPEG).
+        lossy: bool,
+    },
+    /// sRGB-encoded codes `0..=max_code`, decoded and multiplied by `exposure`.
+    Srgb {
+        /// The largest code (255 for 8-bit files).
+        max_code: f32,
+        /// The factor the decoded values were multiplied by.
+        exposure: f32,
+        /// A lossy file (JPEG).
+        lossy: bool,
+    },
+}
+
+impl CodeStep {
+    /// The width of the code step at `value` (the step above the code `value` decodes from).
+    pub fn at(self, value: f32) -> f32 {
+        match self {
+            Self::Float => 0.0,
+            Self::Linear { step, .. } => step,
+            Self::Srgb {
+                max_code, exposure, ..
+            } => {
+                let encoded = linear_to_srgb((value / exposure).clamp(0.0, 1.0));
+                let code = (encoded * max_code).round().min(max_code - 1.0);
+                exposure
+                    * (srgb_to_linear((code + 1.0) / max_code) - srgb_to_linear(code / max_code))
+            }
+        }
+    }
+
+    /// [`Self::at`] per channel.
+    pub fn at_rgb(self, value: Vec3) -> Vec3 {
+        Vec3::new(self.at(value.x), self.at(value.y), self.at(value.z))
+    }
+
+    /// Whether the file was compressed lossily (JPEG).
+    pub fn lossy(self) -> bool {
+        match self {
+            Self::Float => false,
+            Self::Linear { lossy, .. } | Self::Srgb { lossy, .. } => lossy,
+        }
+    }
+
+    /// The codes of an integer file with `max_code` codes in `color_space`.
+    fn of_codes(max_code: f32, color_space: ColorSpace, exposure: f32, lossy: bool) -> Self {
+        match color_space {
+            ColorSpace::Linear => Self::Linear {
+                step: exposure / max_code,
+                lossy,
+            },
+            ColorSpace::Srgb => Self::Srgb {
+                max_code,
+                exposure,
+                lossy,
+            },
+        }
+    }
 }
 
 impl LinearImage {
@@ -414,7 +490,7 @@ fn load_camera_raw(
 }
 
 /// The exact sRGB decoding curve (cdrf-core's, re-exported for this module's users).
-pub use cdrf_core::image_file::srgb_to_linear;
+pub use cdrf_core::image_file::{linear_to_srgb, srgb_to_linear};
 
 fn read_error(path: &Path, error: io::Error) -> ImageError {
     if error.kind() == io::ErrorKind::NotFound {
@@ -558,6 +634,7 @@ fn decode_exr(
         saturated: vec![false; data.len()],
         pixels: data,
         sample_format: SampleFormat::Float,
+        code_step: CodeStep::Float,
         color_space,
     })
 }
@@ -694,7 +771,12 @@ fn decode_with_image(
                 ),
             ));
         }
-        return Ok(convert_levels(&decoded, levels, exposure));
+        return Ok(convert_levels(
+            &decoded,
+            levels,
+            exposure,
+            format == ImageFormat::Jpeg,
+        ));
     }
     let (pixels, saturated, sample_format, color_space) = match &decoded {
         DynamicImage::ImageLuma8(b) => convert_u8(b.as_raw(), 1, color_space, exposure, max_u8),
@@ -714,6 +796,12 @@ fn decode_with_image(
             });
         }
     };
+    let lossy = format == ImageFormat::Jpeg;
+    let code_step = match sample_format {
+        SampleFormat::U8 => CodeStep::of_codes(255.0, color_space, exposure, lossy),
+        SampleFormat::U16 => CodeStep::of_codes(65535.0, color_space, exposure, lossy),
+        SampleFormat::Float | SampleFormat::Raw => CodeStep::Float,
+    };
     Ok(LinearImage {
         width,
         height,
@@ -721,6 +809,7 @@ fn decode_with_image(
         saturated,
         sample_format,
         color_space,
+        code_step,
     })
 }
 
@@ -728,7 +817,12 @@ type Converted = (Vec<Vec3>, Vec<bool>, SampleFormat, ColorSpace);
 
 /// An integer image with raw-like levels: `(code − black) / (white − black) · exposure` (negative
 /// below black: noise around the offset must not be clipped, or the dark mean is biased).
-fn convert_levels(decoded: &DynamicImage, levels: SensorLevels, exposure: f32) -> LinearImage {
+fn convert_levels(
+    decoded: &DynamicImage,
+    levels: SensorLevels,
+    exposure: f32,
+    lossy: bool,
+) -> LinearImage {
     let scale = exposure / f32::from(levels.white - levels.black);
     let black = f32::from(levels.black);
     let decode = |code: u16| (f32::from(code) - black) * scale;
@@ -759,6 +853,7 @@ fn convert_levels(decoded: &DynamicImage, levels: SensorLevels, exposure: f32) -
         saturated,
         sample_format,
         color_space: ColorSpace::Linear,
+        code_step: CodeStep::Linear { step: scale, lossy },
     }
 }
 

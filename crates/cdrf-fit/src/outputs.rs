@@ -23,7 +23,7 @@ use serde::Serialize;
 use crate::curves::{CORRECTION_PHI_COUNT, SphereSamples, ViewModel};
 use crate::evaluate::SphereError;
 use crate::fit::{
-    Fit, ModelErrors, NOISY_BAND, SphereReport, Timings, confidence_95, noisy_ranges,
+    Fit, ModelErrors, NOISY_BAND, NodeBand, SphereReport, Timings, confidence_95, noisy_ranges,
 };
 use crate::photographs::LightReport;
 use crate::plot::{
@@ -101,7 +101,8 @@ pub struct ReportSphere {
     /// Effective samples per θ node (0: filled, not measured).
     pub samples_per_node: Vec<f32>,
     /// Half-width of the 95 % confidence band of the curve at each θ node, relative to it, from
-    /// the pixels' noise (null: not measured). See [`crate::fit::confidence_95`].
+    /// the pixels' noise and the files' code steps (null: not measured). See
+    /// [`crate::fit::confidence_95`].
     pub confidence_95: Vec<Option<f32>>,
     /// θ ranges (degrees) where that band is wider than ±10 %: too noisy to trust.
     pub noisy_theta_deg: Vec<[f32; 2]>,
@@ -396,7 +397,10 @@ impl Report {
                     .collect(),
                 corrected_curve: fit.table_curves[k].iter().map(|v| v.to_array()).collect(),
                 samples_per_node: fit.curves.chosen.node_samples[k].clone(),
-                confidence_95: confidence_95(&fit.curves.chosen, k),
+                confidence_95: confidence_95(&fit.curves.chosen, k)
+                    .iter()
+                    .map(|band| band.map(NodeBand::half_width))
+                    .collect(),
                 noisy_theta_deg: noisy_ranges(
                     &confidence_95(&fit.curves.chosen, k),
                     &theta_deg,
@@ -715,7 +719,10 @@ fn radiance_plot(fit: &Fit) -> String {
                 .enumerate()
                 .map(|(a, (v, b))| {
                     let theta = theta_rad_at(a, settings.theta_count).to_degrees();
-                    (theta, b.map_or(f32::NAN, |b| v.y * (1.0 + sign * b)))
+                    (
+                        theta,
+                        b.map_or(f32::NAN, |b| v.y * (1.0 + sign * b.half_width())),
+                    )
                 })
                 .collect()
         };

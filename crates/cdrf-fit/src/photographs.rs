@@ -108,6 +108,7 @@ pub fn sample_dataset(
         for sphere in &mut samples {
             for sample in &mut sphere.samples {
                 sample.radiance /= strength;
+                sample.code_step /= strength;
             }
         }
     }
@@ -315,22 +316,26 @@ fn load_companion(
     Ok(file)
 }
 
-/// `image` minus the entry's flagged frame (decoded alike); a pixel clipped in either is clipped.
+/// `image` minus the entry's flagged frame (decoded alike; a pixel clipped in either is
+/// clipped), each pixel's code steps of both frames added, and whether either is lossy.
 fn subtract_flagged(
     image: &LinearImage,
     entry: &SphereEntry,
     path: &std::path::Path,
-) -> Result<LinearImage, FitError> {
+) -> Result<(LinearImage, Vec<Vec3>, bool), FitError> {
     let size = [image.width, image.height];
     let ambient = load_companion(entry, "ambient_image", path, &entry.decoding(), size)?;
     let mut out = image.clone();
+    let mut steps = Vec::with_capacity(out.pixels.len());
     for (pixel, light) in out.pixels.iter_mut().zip(&ambient.pixels) {
+        steps.push(image.code_step.at_rgb(*pixel) + ambient.code_step.at_rgb(*light));
         *pixel -= *light;
     }
     for (clipped, light_clipped) in out.saturated.iter_mut().zip(&ambient.saturated) {
         *clipped |= *light_clipped;
     }
-    Ok(out)
+    let lossy = image.code_step.lossy() || ambient.code_step.lossy();
+    Ok((out, steps, lossy))
 }
 
 /// A mask image as one flag per pixel (non-zero = use), checked against the photograph's size.
@@ -403,11 +408,14 @@ fn sample_photo(
         };
         let (mut samples, mut dropped) = sample_sphere(
             &view,
-            flagged.as_ref().unwrap_or(&image),
+            flagged.as_ref().map_or(&image, |(net, ..)| net),
             &light,
             options.edge_margin_px,
             mask.as_deref(),
             allow_negative || entry.ambient.is_some(),
+            flagged
+                .as_ref()
+                .map(|(_, steps, lossy)| (steps.as_slice(), *lossy)),
         );
         if member != Member::Calibration {
             dropped.highlight = reject_highlights(&mut samples, |sample| {

@@ -44,7 +44,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::dataset::Projection;
-use crate::image_io::{ColorSpace, LinearImage, SampleFormat};
+use crate::image_io::{CodeStep, ColorSpace, LinearImage, SampleFormat};
 use crate::sphere::{Circle, Illumination, SphereView};
 
 /// A homogeneous scattering medium, per RGB channel, in millimetres.
@@ -628,6 +628,7 @@ impl Frame {
             saturated: vec![false; n * n],
             sample_format: SampleFormat::Float,
             color_space: ColorSpace::Linear,
+            code_step: CodeStep::Float,
         }
     }
 }

@@ -594,6 +594,12 @@ pub struct Sample {
     pub view_dot_light: f32,
     /// Pixel index (row-major) in its image.
     pub pixel: u32,
+    /// The width of the file's code step at this value, π·L/E per channel (the photograph's
+    /// and its flagged frame's added): how far rounding can have moved `radiance`
+    /// ([`crate::image_io::CodeStep`]).
+    pub code_step: Vec3,
+    /// Whether a file behind this sample was compressed lossily (JPEG).
+    pub lossy: bool,
 }
 
 /// How many pixels inside the silhouette were not used, and why.
@@ -618,7 +624,8 @@ pub struct DroppedPixels {
 /// closer to the silhouette than `edge_margin_px`, pixels a `mask` excludes (`false`; row-major,
 /// the image's size), saturated pixels and invalid ones (non-finite; negative unless
 /// `allow_negative`, which a raw-like file's noise around its black level needs) are dropped and
-/// counted.
+/// counted. Each sample's [`Sample::code_step`] is `code_steps[pixel]` where given (a
+/// photograph minus its flagged frame: both frames' steps), else the image's own.
 pub fn sample_sphere(
     view: &SphereView,
     image: &LinearImage,
@@ -626,6 +633,7 @@ pub fn sample_sphere(
     edge_margin_px: f32,
     mask: Option<&[bool]>,
     allow_negative: bool,
+    code_steps: Option<(&[Vec3], bool)>,
 ) -> (Vec<Sample>, DroppedPixels) {
     let (width, height) = (image.width as usize, image.height as usize);
     let mut samples = Vec::new();
@@ -660,6 +668,12 @@ pub fn sample_sphere(
                 radiance: value * std::f32::consts::PI / irradiance,
                 view_dot_light: point.to_camera.dot(to_light),
                 pixel: index as u32,
+                code_step: code_steps
+                    .and_then(|(steps, _)| steps.get(index).copied())
+                    .unwrap_or_else(|| image.code_step.at_rgb(value))
+                    * std::f32::consts::PI
+                    / irradiance,
+                lossy: code_steps.map_or(image.code_step.lossy(), |(_, lossy)| lossy),
             });
         }
     }

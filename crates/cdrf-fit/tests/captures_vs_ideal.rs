@@ -12,9 +12,10 @@
 //! Where they hold and where not (docs/captures.md has the table): the fit divides out the view's
 //! azimuth (the lamp is 83° from the camera, 53–62° in the several-sphere photograph) and finds
 //! each silhouette against the wall to a tenth of a pixel, so every lit side and terminator of
-//! the single-sphere sets is within 2 % / 4 %. Not yet: the shadow side of the 50 mm sphere
-//! (room light the flagged frame cannot remove), the 8-bit JPEG's shadow sides, and the
-//! several-sphere photograph's terminators and shadow sides (few samples per pixel). What this
+//! the single-sphere sets is within 2 % / 4 %; the 8-bit JPEG's shadow sides are inside the band,
+//! which counts the files' code steps. Not yet: the shadow side of the 50 mm sphere (room light
+//! the flagged frame cannot remove), and the several-sphere photograph's terminators and shadow
+//! sides (few samples per pixel). What this
 //! test holds every capture to is what the fit reaches today, so that it cannot get worse
 //! unnoticed: see [`held_to`].
 
@@ -22,7 +23,7 @@ use std::path::{Path, PathBuf};
 
 use cdrf_core::lut::{CdrfLut, Filter};
 use cdrf_fit::dataset::Dataset;
-use cdrf_fit::fit::{Fit, FitOptions, confidence_95, fit_dataset};
+use cdrf_fit::fit::{Fit, FitOptions, NodeBand, confidence_95, fit_dataset};
 use glam::Vec3;
 
 fn data_dir() -> PathBuf {
@@ -64,14 +65,12 @@ fn region_sum(lut: &CdrfLut, curvature_per_mm: f32, from: f32, to: f32) -> Vec3 
 fn region_band(fit: &Fit, k: usize, from: f32, to: f32) -> f32 {
     let band = confidence_95(&fit.curves.chosen, k);
     let count = band.len();
-    let information: f32 = band
+    let in_region = band
         .iter()
         .enumerate()
         .filter(|(i, _)| (from..to).contains(&(*i as f32 / (count - 1) as f32 * 180.0)))
-        .filter_map(|(_, b)| *b)
-        .map(|b| 1.0 / (b * b).max(1e-12))
-        .sum();
-    information.sqrt().recip()
+        .filter_map(|(_, b)| *b);
+    NodeBand::pool(in_region).map_or(f32::INFINITY, NodeBand::half_width)
 }
 
 /// Fits one capture set and checks every sphere's regions; returns the failures.
@@ -103,14 +102,16 @@ fn check(case: &str) -> Vec<String> {
             } else {
                 " (over the issue's bound)"
             };
-            if let Some(limit) = held_to(case, sphere.radius_mm, name)
+            if let Some((limit, or_band)) = held_to(case, sphere.radius_mm, name)
                 && off > limit
+                && !(or_band && off <= band)
             {
                 failures.push(format!(
-                    "{case} r = {} mm {name}: {:.1} % off (held to {:.0} %)",
+                    "{case} r = {} mm {name}: {:.1} % off (held to {:.0} %{})",
                     sphere.radius_mm,
                     100.0 * off,
-                    100.0 * limit
+                    100.0 * limit,
+                    if or_band { " or the band" } else { "" }
                 ));
             }
         }
@@ -119,21 +120,24 @@ fn check(case: &str) -> Vec<String> {
     failures
 }
 
-/// The bound a region is held to today (largest channel), or `None` where nothing is held.
+/// The bound a region is held to today (largest channel), and whether being inside the fit's
+/// band also passes; `None` where nothing is held.
 /// - lit side: issue 38's 2 % on the single-sphere sets, 3 % in the several-sphere photograph;
 /// - terminator: issue 38's 4 % on the single-sphere sets, 8 % in the several-sphere photograph
 ///   (its lamp 53–62° from the camera: what the view's azimuth model leaves; see the module
 ///   docs);
 /// - shadow side: issue 38's 15 % for the RAW-like and the ideal-sensor sets up to r = 30 mm;
-///   the 50 mm sphere (room light the flag leaves), JPEG (8 bits) and the several-sphere
+///   15 % or the band for JPEG (its 8-bit codes and compression, which the band counts); the
+///   50 mm sphere of the linear sets (room light the flag leaves) and the several-sphere
 ///   photograph (rendered at few samples) are printed only.
-fn held_to(case: &str, radius_mm: f32, region: &str) -> Option<f32> {
+fn held_to(case: &str, radius_mm: f32, region: &str) -> Option<(f32, bool)> {
     match region {
-        "lit" if case == "multi" => Some(0.03),
-        "lit" => Some(0.02),
-        "terminator" if case == "multi" => Some(0.08),
-        "terminator" => Some(0.04),
-        "shadow" if matches!(case, "raw14" | "lamp") && radius_mm <= 30.0 => Some(0.15),
+        "lit" if case == "multi" => Some((0.03, false)),
+        "lit" => Some((0.02, false)),
+        "terminator" if case == "multi" => Some((0.08, false)),
+        "terminator" => Some((0.04, false)),
+        "shadow" if matches!(case, "raw14" | "lamp") && radius_mm <= 30.0 => Some((0.15, false)),
+        "shadow" if case == "jpeg" => Some((0.15, true)),
         _ => None,
     }
 }

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use cdrf_fit::image_io::{
-    ColorSpace, Decoding, ImageError, LinearImage, SampleFormat, SensorLevels, load_linear_image,
-    load_linear_image_with, srgb_to_linear,
+    CodeStep, ColorSpace, Decoding, ImageError, LinearImage, SampleFormat, SensorLevels,
+    load_linear_image, load_linear_image_with, srgb_to_linear,
 };
 use glam::Vec3;
 use image::{ImageBuffer, Luma, Rgb, Rgba};
@@ -123,6 +123,50 @@ fn png_8bit_defaults_to_srgb_and_flags_255() {
     let linear = load_linear_image(&path, Some(ColorSpace::Linear), 1.0).unwrap();
     assert_eq!(linear.color_space, ColorSpace::Linear);
     assert_close(linear.pixel(2, 0).x, 128.0 / 255.0, 1e-7, "linear 128");
+}
+
+#[test]
+fn each_file_knows_the_width_of_its_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    // 8-bit sRGB: the step above a code is the distance to the next code's value.
+    let png = dir.path().join("p8.png");
+    pattern_u8().save(&png).unwrap();
+    let image = load_linear_image(&png, None, 2.0).unwrap();
+    assert!(!image.code_step.lossy());
+    for code in [0.0_f32, 1.0, 10.0, 11.0, 128.0] {
+        let value = 2.0 * srgb_to_linear(code / 255.0);
+        let next = 2.0 * srgb_to_linear((code + 1.0) / 255.0);
+        assert_close(image.code_step.at(value), next - value, 1e-7, "sRGB step");
+    }
+    // JPEG: the same codes, compressed.
+    let jpg = dir.path().join("p8.jpg");
+    pattern_u8().save(&jpg).unwrap();
+    assert!(load(&jpg).code_step.lossy());
+    // 16-bit linear: 1/65535 everywhere; sensor levels: 1/(white − black), times the exposure.
+    let png16 = dir.path().join("p16.png");
+    ImageBuffer::<Rgb<u16>, _>::from_fn(2, 1, |x, _| Rgb([x as u16 * 600; 3]))
+        .save(&png16)
+        .unwrap();
+    assert_eq!(
+        load(&png16).code_step,
+        CodeStep::Linear {
+            step: 1.0 / 65535.0,
+            lossy: false
+        }
+    );
+    let decoding = Decoding {
+        levels: Some(SensorLevels {
+            black: 512,
+            white: 16383,
+        }),
+        exposure: 2.0,
+        ..Decoding::default()
+    };
+    let raw = load_linear_image_with(&png16, &decoding).unwrap();
+    assert_close(raw.code_step.at(0.3), 2.0 / 15871.0, 1e-9, "levels step");
+    // Float files have none.
+    let exr = data_dir().join("sphere_r35.exr");
+    assert_eq!(load(&exr).code_step, CodeStep::Float);
 }
 
 #[test]

@@ -573,8 +573,15 @@ fn wax_samples() -> Vec<(f32, SphereSamples)> {
                 h,
                 &detection.edge_points,
             );
-            let (samples, _) =
-                sample_sphere(&view, &image, &(&dataset.light).into(), 2.0, None, false);
+            let (samples, _) = sample_sphere(
+                &view,
+                &image,
+                &(&dataset.light).into(),
+                2.0,
+                None,
+                false,
+                None,
+            );
             let samples = SphereSamples {
                 curvature_per_mm: 1.0 / entry.radius_mm,
                 image_width: image.width,

@@ -1,7 +1,7 @@
 //! Sphere detection and the pixel → normal mapping, on synthetic photographs with known truth.
 
 use cdrf_fit::dataset::Projection;
-use cdrf_fit::image_io::{ColorSpace, LinearImage, SampleFormat};
+use cdrf_fit::image_io::{CodeStep, ColorSpace, LinearImage, SampleFormat};
 use cdrf_fit::sphere::{Illumination, SphereView, detect_sphere, sample_sphere};
 use glam::{Vec2, Vec3};
 
@@ -13,6 +13,7 @@ fn image(width: u32, height: u32, pixels: Vec<Vec3>) -> LinearImage {
         pixels,
         sample_format: SampleFormat::Float,
         color_space: ColorSpace::Linear,
+        code_step: CodeStep::Float,
     }
 }
 
@@ -75,7 +76,7 @@ fn perspective_theta_error(center: Vec3, radius: f32) -> (usize, f32, f32) {
         &detection.edge_points,
     );
     let light = Illumination::directional(to_light, Vec3::ONE);
-    let (samples, _) = sample_sphere(&view, &photo, &light, 2.0, None, false);
+    let (samples, _) = sample_sphere(&view, &photo, &light, 2.0, None, false, None);
     let (mut sum, mut worst) = (0.0_f32, 0.0_f32);
     for s in &samples {
         let normal = truth[s.pixel as usize].expect("sampled pixels are on the sphere");

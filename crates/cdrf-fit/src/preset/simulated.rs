@@ -146,6 +146,7 @@ pub fn fit_simulated(
             edge_margin_px(medium, &sphere, settings),
             None,
             false,
+            None,
         );
         let name = format!("simulated sphere r = {radius_mm} mm");
         if sphere_samples.len() < settings.fit.min_samples {

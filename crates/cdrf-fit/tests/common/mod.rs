@@ -55,6 +55,8 @@ pub fn synthetic_sphere_lit_from(
                 radiance: Vec3::from_array(model.reflectance(1.0 / radius_mm, theta)) * g(phi),
                 view_dot_light: point.to_camera.dot(to_light),
                 pixel: (row * 512 + column) as u32,
+                code_step: Vec3::ZERO,
+                lossy: false,
             });
         }
     }
