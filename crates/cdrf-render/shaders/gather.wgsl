@@ -176,11 +176,16 @@ const CONFINEMENT_TOLERANCE_MM: f32 = 1.0;
 // `thickness_mm`: the body along the light at the point (NonLocalTerms); `along`: n · the
 // light's ray (> 0 on the shadow side).
 fn confinement_gain(thickness_mm: f32, along: f32, light_curvature_per_mm: f32) -> vec3<f32> {
-    if thickness_mm <= 0.0 || along <= 0.0 || light_curvature_per_mm <= 1e-3 {
+    if thickness_mm <= 0.0 || along <= 0.0 {
         return vec3<f32>(1.0);
     }
-    let chord_mm = 2.0 * along / light_curvature_per_mm;
-    let thinner_mm = clamp(chord_mm - thickness_mm - CONFINEMENT_TOLERANCE_MM, 0.0, thickness_mm);
+    // Flat or concave along the light, the circle's chord is unbounded: the limit of a
+    // vanishing curvature, so that the gain is continuous where the curvature changes sign.
+    var thinner_mm = thickness_mm;
+    if light_curvature_per_mm > 1e-3 {
+        let chord_mm = 2.0 * along / light_curvature_per_mm;
+        thinner_mm = clamp(chord_mm - thickness_mm - CONFINEMENT_TOLERANCE_MM, 0.0, thickness_mm);
+    }
     let length_mm = material.transmission_length_mm;
     let thick = 1.0 - exp(-thickness_mm / (CONFINEMENT_THICKNESS_LENGTHS * length_mm));
     let deep = smoothstep(0.17, 0.5, along);
