@@ -96,6 +96,10 @@ pub struct CurveFit {
     /// Relative bias bound per θ node per sphere from the files' codes ([`code_bias_bound`]),
     /// pooled over the node's samples with their hat weights (0 where filled).
     pub node_systematic: Vec<Vec<Vec3>>,
+    /// The flagged frame's light per θ node per sphere over the model, pooled alike: above 1
+    /// the room gave the sphere more light there than the lamp (0 without a flagged frame;
+    /// see [`crate::fit::ROOM_DOMINATED`]).
+    pub node_ambient: Vec<Vec<Vec3>>,
     /// The poster's g(φ) on the φ nodes, g(0) = 1.
     pub g_phi: Vec<Vec3>,
     /// c_k(θ, φ) per sphere (input order) on the coarse grid (row-major, θ rows), when fitted.
@@ -220,6 +224,8 @@ struct Point {
     code_step: Vec3,
     /// See [`Sample::lossy`].
     lossy: bool,
+    /// See [`Sample::ambient`].
+    ambient: Vec3,
 }
 
 const BANDS: usize = 18;
@@ -259,6 +265,7 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
                     band: ((s.theta_rad.to_degrees() / 10.0) as usize).min(BANDS - 1) as u8,
                     code_step: s.code_step,
                     lossy: s.lossy,
+                    ambient: s.ambient,
                 })
                 .collect()
         })
@@ -270,6 +277,7 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
         node_samples: vec![vec![0.0; settings.theta_count]; spheres.len()],
         node_noise: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
         node_systematic: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
+        node_ambient: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
         g_phi: vec![Vec3::ONE; settings.phi_count],
         correction: None,
         outliers: vec![0; spheres.len()],
@@ -351,6 +359,7 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
             .collect();
         // Σ hat · bound and Σ hat · |model| per node: their ratio is the relative bound.
         let mut bound = vec![Vec3::ZERO; theta_count];
+        let mut ambient = vec![Vec3::ZERO; theta_count];
         let mut model = vec![Vec3::ZERO; theta_count];
         for p in sphere_points {
             let (a, t) = p.basis.theta;
@@ -361,14 +370,19 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
             let b = code_bias_bound(p.code_step, sigma[p.band as usize], p.lossy);
             for (node, w) in [(a, 1.0 - t), (a + 1, t)] {
                 bound[node] += w * b;
+                ambient[node] += w * p.ambient;
                 model[node] += w * m;
             }
         }
-        fit.node_systematic[k] = bound
-            .iter()
-            .zip(&model)
-            .map(|(b, m)| Vec3::select(m.cmpgt(Vec3::ZERO), *b / *m, Vec3::ZERO))
-            .collect();
+        let relative = |values: &[Vec3]| -> Vec<Vec3> {
+            values
+                .iter()
+                .zip(&model)
+                .map(|(v, m)| Vec3::select(m.cmpgt(Vec3::ZERO), *v / *m, Vec3::ZERO))
+                .collect()
+        };
+        fit.node_systematic[k] = relative(&bound);
+        fit.node_ambient[k] = relative(&ambient);
         fit.node_samples[k] = counts;
         fit.node_noise[k] = (0..theta_count)
             .map(|a| {

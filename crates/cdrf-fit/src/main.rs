@@ -172,18 +172,24 @@ fn run(args: Args) -> anyhow::Result<()> {
             }
         }
         for (sphere, entry) in report.spheres.iter().zip(&fit.spheres) {
+            if sphere.room_dominated_theta_deg.is_empty() {
+                continue;
+            }
+            eprintln!(
+                "warning: r = {} mm: at theta {} deg the flagged frame carried more than {:.0} times the lamp's light; a flag leaves part of the room's (and lit neighbours') light, a bias there the band does not count (darken the room: docs/captures.md)",
+                entry.radius_mm,
+                degree_ranges(&sphere.room_dominated_theta_deg),
+                cdrf_fit::fit::ROOM_DOMINATED
+            );
+        }
+        for (sphere, entry) in report.spheres.iter().zip(&fit.spheres) {
             if sphere.noisy_theta_deg.is_empty() {
                 continue;
             }
-            let ranges: Vec<String> = sphere
-                .noisy_theta_deg
-                .iter()
-                .map(|[from, to]| format!("{from:.0}–{to:.0}"))
-                .collect();
             eprintln!(
                 "warning: r = {} mm: too noisy to trust at theta {} deg (95 % band wider than ±{:.0} %; see report.json confidence_95)",
                 entry.radius_mm,
-                ranges.join(", "),
+                degree_ranges(&sphere.noisy_theta_deg),
                 100.0 * cdrf_fit::fit::NOISY_BAND
             );
         }
@@ -257,4 +263,19 @@ fn run(args: Args) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     }
     Ok(())
+}
+
+/// θ ranges as the warnings print them: "110–135, 140–150".
+fn degree_ranges(ranges: &[[f32; 2]]) -> String {
+    ranges
+        .iter()
+        .map(|[from, to]| {
+            if to > from {
+                format!("{from:.0}–{to:.0}")
+            } else {
+                format!("{from:.0}")
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }

@@ -24,6 +24,7 @@ use crate::curves::{CORRECTION_PHI_COUNT, SphereSamples, ViewModel};
 use crate::evaluate::SphereError;
 use crate::fit::{
     Fit, ModelErrors, NOISY_BAND, NodeBand, SphereReport, Timings, confidence_95, noisy_ranges,
+    room_dominated_ranges,
 };
 use crate::photographs::LightReport;
 use crate::plot::{
@@ -106,6 +107,10 @@ pub struct ReportSphere {
     pub confidence_95: Vec<Option<f32>>,
     /// θ ranges (degrees) where that band is wider than ±10 %: too noisy to trust.
     pub noisy_theta_deg: Vec<[f32; 2]>,
+    /// θ ranges (degrees) where the flagged frame carried more than ten times the light the
+    /// curve keeps: what the flag left of the room's light is a bias there that the band does
+    /// not count. See [`crate::fit::room_dominated_ranges`].
+    pub room_dominated_theta_deg: Vec<[f32; 2]>,
 }
 
 /// `report.json`.
@@ -406,6 +411,7 @@ impl Report {
                     &theta_deg,
                     NOISY_BAND,
                 ),
+                room_dominated_theta_deg: room_dominated_ranges(&fit.curves.chosen, k, &theta_deg),
             })
             .collect();
         let phi_table = |values: &[Vec3]| -> Vec<(f32, [f32; 3])> {

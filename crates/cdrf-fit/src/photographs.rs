@@ -19,8 +19,8 @@ use crate::fit::{DetectedCircle, FitError, FitOptions, Progress, SphereReport, T
 use crate::highlight::reject_highlights;
 use crate::image_io::{ColorSpace, Decoding, ImageError, LinearImage, load_linear_image_with};
 use crate::sphere::{
-    Circle, Detection, DetectionError, Illumination, Sample, SphereView, detect_sphere,
-    sample_sphere,
+    Circle, Detection, DetectionError, FlaggedFrame, Illumination, Sample, SphereView,
+    detect_sphere, sample_sphere,
 };
 
 /// Every sphere of a data set sampled, and how the light was known.
@@ -109,6 +109,7 @@ pub fn sample_dataset(
             for sample in &mut sphere.samples {
                 sample.radiance /= strength;
                 sample.code_step /= strength;
+                sample.ambient /= strength;
             }
         }
     }
@@ -317,12 +318,12 @@ fn load_companion(
 }
 
 /// `image` minus the entry's flagged frame (decoded alike; a pixel clipped in either is
-/// clipped), each pixel's code steps of both frames added, and whether either is lossy.
+/// clipped), and the flagged frame as sampling needs it.
 fn subtract_flagged(
     image: &LinearImage,
     entry: &SphereEntry,
     path: &std::path::Path,
-) -> Result<(LinearImage, Vec<Vec3>, bool), FitError> {
+) -> Result<(LinearImage, FlaggedFrame), FitError> {
     let size = [image.width, image.height];
     let ambient = load_companion(entry, "ambient_image", path, &entry.decoding(), size)?;
     let mut out = image.clone();
@@ -335,7 +336,14 @@ fn subtract_flagged(
         *clipped |= *light_clipped;
     }
     let lossy = image.code_step.lossy() || ambient.code_step.lossy();
-    Ok((out, steps, lossy))
+    Ok((
+        out,
+        FlaggedFrame {
+            light: ambient.pixels,
+            code_steps: steps,
+            lossy,
+        },
+    ))
 }
 
 /// A mask image as one flag per pixel (non-zero = use), checked against the photograph's size.
@@ -408,14 +416,12 @@ fn sample_photo(
         };
         let (mut samples, mut dropped) = sample_sphere(
             &view,
-            flagged.as_ref().map_or(&image, |(net, ..)| net),
+            flagged.as_ref().map_or(&image, |(net, _)| net),
             &light,
             options.edge_margin_px,
             mask.as_deref(),
             allow_negative || entry.ambient.is_some(),
-            flagged
-                .as_ref()
-                .map(|(_, steps, lossy)| (steps.as_slice(), *lossy)),
+            flagged.as_ref().map(|(_, frame)| frame),
         );
         if member != Member::Calibration {
             dropped.highlight = reject_highlights(&mut samples, |sample| {

@@ -600,6 +600,20 @@ pub struct Sample {
     pub code_step: Vec3,
     /// Whether a file behind this sample was compressed lossily (JPEG).
     pub lossy: bool,
+    /// The flagged frame's light at this pixel (what was subtracted), π·L/E per channel; zero
+    /// without one.
+    pub ambient: Vec3,
+}
+
+/// A photograph's flagged frame as [`sample_sphere`] needs it, per pixel (row-major).
+#[derive(Clone, Debug, Default)]
+pub struct FlaggedFrame {
+    /// The flagged frame's own pixels (already subtracted from the photograph).
+    pub light: Vec<Vec3>,
+    /// The code steps of both frames at each pixel, added.
+    pub code_steps: Vec<Vec3>,
+    /// Whether either file is lossy (JPEG).
+    pub lossy: bool,
 }
 
 /// How many pixels inside the silhouette were not used, and why.
@@ -624,8 +638,8 @@ pub struct DroppedPixels {
 /// closer to the silhouette than `edge_margin_px`, pixels a `mask` excludes (`false`; row-major,
 /// the image's size), saturated pixels and invalid ones (non-finite; negative unless
 /// `allow_negative`, which a raw-like file's noise around its black level needs) are dropped and
-/// counted. Each sample's [`Sample::code_step`] is `code_steps[pixel]` where given (a
-/// photograph minus its flagged frame: both frames' steps), else the image's own.
+/// counted. `image` is the photograph minus its `flagged` frame where there is one, which gives
+/// each sample's code steps and ambient light; else they are the image's own and zero.
 pub fn sample_sphere(
     view: &SphereView,
     image: &LinearImage,
@@ -633,7 +647,7 @@ pub fn sample_sphere(
     edge_margin_px: f32,
     mask: Option<&[bool]>,
     allow_negative: bool,
-    code_steps: Option<(&[Vec3], bool)>,
+    flagged: Option<&FlaggedFrame>,
 ) -> (Vec<Sample>, DroppedPixels) {
     let (width, height) = (image.width as usize, image.height as usize);
     let mut samples = Vec::new();
@@ -662,18 +676,20 @@ pub fn sample_sphere(
                 continue;
             }
             let (to_light, irradiance) = light.at(point.position_mm);
+            let to_reflectance = std::f32::consts::PI / irradiance;
+            let at = |pixels: &[Vec3]| pixels.get(index).copied().unwrap_or(Vec3::ZERO);
             samples.push(Sample {
                 theta_rad: point.normal.dot(to_light).clamp(-1.0, 1.0).acos(),
                 phi_rad: point.normal.dot(point.to_camera).clamp(-1.0, 1.0).acos(),
-                radiance: value * std::f32::consts::PI / irradiance,
+                radiance: value * to_reflectance,
                 view_dot_light: point.to_camera.dot(to_light),
                 pixel: index as u32,
-                code_step: code_steps
-                    .and_then(|(steps, _)| steps.get(index).copied())
-                    .unwrap_or_else(|| image.code_step.at_rgb(value))
-                    * std::f32::consts::PI
-                    / irradiance,
-                lossy: code_steps.map_or(image.code_step.lossy(), |(_, lossy)| lossy),
+                code_step: flagged.map_or_else(
+                    || image.code_step.at_rgb(value),
+                    |frame| at(&frame.code_steps),
+                ) * to_reflectance,
+                lossy: flagged.map_or(image.code_step.lossy(), |frame| frame.lossy),
+                ambient: flagged.map_or(Vec3::ZERO, |frame| at(&frame.light)) * to_reflectance,
             });
         }
     }

@@ -57,6 +57,7 @@ pub fn synthetic_sphere_lit_from(
                 pixel: (row * 512 + column) as u32,
                 code_step: Vec3::ZERO,
                 lossy: false,
+                ambient: Vec3::ZERO,
             });
         }
     }
