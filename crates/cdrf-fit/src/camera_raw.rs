@@ -323,8 +323,9 @@ fn develop(path: &Path, raw: &RawImage, exposure: f32) -> Result<LinearImage, Im
         saturated,
         sample_format: SampleFormat::Raw,
         color_space: ColorSpace::Linear,
-        // One raw code over the narrowest range (white balance and the colour matrix mix
-        // channels, but keep white at white).
+        // One raw code over the narrowest range. White balance and the colour matrix scale it
+        // per channel by up to their rows' absolute sums (a few); a raw file's own noise, over
+        // a code, dithers its rounding away in any case.
         code_step: CodeStep::Linear {
             step: exposure
                 / (white - black.iter().copied().fold(f32::NEG_INFINITY, f32::max)).max(1e-6),

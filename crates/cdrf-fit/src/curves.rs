@@ -93,13 +93,15 @@ pub struct CurveFit {
     pub node_samples: Vec<Vec<f32>>,
     /// Relative noise per θ node per sphere (robust, from residuals).
     pub node_noise: Vec<Vec<Vec3>>,
-    /// Relative bias bound per θ node per sphere from the files' codes ([`code_bias_bound`]),
-    /// pooled over the node's samples with their hat weights (0 where filled).
-    pub node_systematic: Vec<Vec<Vec3>>,
-    /// The flagged frame's light per θ node per sphere over the model, pooled alike: above 1
-    /// the room gave the sphere more light there than the lamp (0 without a flagged frame;
+    /// Per θ node per sphere, sums over the node's samples with their hat weights (0 where
+    /// filled), π·L/E: the model, floored at [`MODEL_FLOOR`] of the peak like the weights, so
+    /// that the two sums below divide by it into relative values and pool as sums over nodes.
+    pub node_model_sum: Vec<Vec<Vec3>>,
+    /// The files' code bias bounds ([`code_bias_bound`]), summed like `node_model_sum`.
+    pub node_code_bias_sum: Vec<Vec<Vec3>>,
+    /// The flagged frame's light, summed like `node_model_sum` (0 without a flagged frame;
     /// see [`crate::fit::ROOM_DOMINATED`]).
-    pub node_ambient: Vec<Vec<Vec3>>,
+    pub node_ambient_sum: Vec<Vec<Vec3>>,
     /// The poster's g(φ) on the φ nodes, g(0) = 1.
     pub g_phi: Vec<Vec3>,
     /// c_k(θ, φ) per sphere (input order) on the coarse grid (row-major, θ rows), when fitted.
@@ -113,6 +115,11 @@ impl CurveFit {
     pub fn view_factor(&self, sphere: usize, theta_rad: f32, phi_rad: f32) -> Vec3 {
         let basis = Basis::new(theta_rad, phi_rad, &self.settings);
         self.view_factor_at(sphere, &basis)
+    }
+
+    /// f_k(θ)·g(φ)·c_k(θ, φ) at a sample's basis.
+    fn model_at(&self, sphere: usize, basis: &Basis) -> Vec3 {
+        hat(&self.curves[sphere], basis.theta) * self.view_factor_at(sphere, basis)
     }
 
     fn view_factor_at(&self, sphere: usize, basis: &Basis) -> Vec3 {
@@ -276,8 +283,9 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
         curves: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
         node_samples: vec![vec![0.0; settings.theta_count]; spheres.len()],
         node_noise: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
-        node_systematic: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
-        node_ambient: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
+        node_model_sum: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
+        node_code_bias_sum: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
+        node_ambient_sum: vec![vec![Vec3::ZERO; settings.theta_count]; spheres.len()],
         g_phi: vec![Vec3::ONE; settings.phi_count],
         correction: None,
         outliers: vec![0; spheres.len()],
@@ -339,8 +347,9 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
     for (k, sphere_points) in points.iter().enumerate() {
         fit.outliers[k] = sphere_points.iter().filter(|p| p.outlier.any()).count();
         let mut counts = vec![0.0_f32; theta_count];
-        let model_at =
-            |p: &Point| hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(k, &p.basis);
+        let model_at = |p: &Point| fit.model_at(k, &p.basis);
+        let peak = fit.curves[k].iter().fold(Vec3::ZERO, |m, v| m.max(*v));
+        let floor = (peak * MODEL_FLOOR).max(Vec3::splat(1e-12));
         // Absolute noise per band (what dithers the codes; the relative noise is floored).
         let mut deviations: Vec<[Vec<f32>; 3]> = vec![Default::default(); BANDS];
         for p in sphere_points.iter().filter(|p| !p.outlier.any()) {
@@ -357,7 +366,6 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
                 }))
             })
             .collect();
-        // Σ hat · bound and Σ hat · |model| per node: their ratio is the relative bound.
         let mut bound = vec![Vec3::ZERO; theta_count];
         let mut ambient = vec![Vec3::ZERO; theta_count];
         let mut model = vec![Vec3::ZERO; theta_count];
@@ -366,7 +374,7 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
             let a = a as usize;
             counts[a] += 1.0 - t;
             counts[a + 1] += t;
-            let m = model_at(p).abs();
+            let m = model_at(p).abs().max(floor);
             let b = code_bias_bound(p.code_step, sigma[p.band as usize], p.lossy);
             for (node, w) in [(a, 1.0 - t), (a + 1, t)] {
                 bound[node] += w * b;
@@ -374,15 +382,9 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
                 model[node] += w * m;
             }
         }
-        let relative = |values: &[Vec3]| -> Vec<Vec3> {
-            values
-                .iter()
-                .zip(&model)
-                .map(|(v, m)| Vec3::select(m.cmpgt(Vec3::ZERO), *v / *m, Vec3::ZERO))
-                .collect()
-        };
-        fit.node_systematic[k] = relative(&bound);
-        fit.node_ambient[k] = relative(&ambient);
+        fit.node_model_sum[k] = model;
+        fit.node_code_bias_sum[k] = bound;
+        fit.node_ambient_sum[k] = ambient;
         fit.node_samples[k] = counts;
         fit.node_noise[k] = (0..theta_count)
             .map(|a| {
@@ -396,13 +398,18 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
 }
 
 /// How far a file's codes can have moved a value, per channel, no matter how many pixels are
-/// averaged: rounding's half step, which a noise of `sigma` (same units) dithers away as
+/// averaged: rounding's half step, which a noise of σ before rounding dithers away as
 /// `exp(−2π²(σ/step)²)` (the first harmonic of the rounding error under Gaussian noise), and
-/// for a lossy file half a step more of compression, which noise does not remove.
+/// for a lossy file half a step more for its compression — an allowance, not a derived bound,
+/// that noise does not remove. `sigma` is the spread measured after rounding (robust, same
+/// units), which holds rounding's own (0.37 step for a median-based spread of a uniform error):
+/// that is taken out first, so a noiseless file keeps the whole half step.
 pub fn code_bias_bound(step: Vec3, sigma: Vec3, lossy: bool) -> Vec3 {
+    const ROUNDING_SPREAD_STEPS: f32 = 0.3707;
     let dithered = |step: f32, sigma: f32| {
         if step > 0.0 {
-            let s = sigma / step;
+            let s2 = ((sigma / step).powi(2) - ROUNDING_SPREAD_STEPS.powi(2)).max(0.0);
+            let s = s2.sqrt();
             0.5 * step * (-2.0 * std::f32::consts::PI.powi(2) * s * s).exp()
         } else {
             0.0
@@ -435,15 +442,13 @@ fn reweight_points(
         .for_each(|(k, (sphere_points, noise))| {
             let peak = fit.curves[k].iter().fold(Vec3::ZERO, |m, v| m.max(*v));
             let floor = (peak * MODEL_FLOOR).max(Vec3::splat(1e-12));
-            let model = |p: &Point| {
-                (hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(k, &p.basis)).max(floor)
-            };
+            let model = |p: &Point| fit.model_at(k, &p.basis).max(floor);
             // Relative deviations per band and channel, only where the model is above its floor
             // (below it the ratio measures the floor, not the noise).
             let mut deviations: Vec<[Vec<f32>; 3]> = vec![Default::default(); BANDS];
             // Every 4th sample is plenty for a median (thousands per band).
             for p in sphere_points.iter().step_by(4) {
-                let m = hat(&fit.curves[k], p.basis.theta) * fit.view_factor_at(k, &p.basis);
+                let m = fit.model_at(k, &p.basis);
                 for c in 0..3 {
                     if m[c] > floor[c] {
                         deviations[p.band as usize][c].push((p.radiance[c] / m[c] - 1.0).abs());
@@ -671,20 +676,24 @@ mod tests {
     #[test]
     fn code_bias_is_half_a_step_without_noise_and_dithered_away_with_it() {
         let step = Vec3::splat(0.01);
-        // Noiseless lossless codes: rounding's half step is all bias.
+        // The spread measured after rounding, for a noise of `before` steps before it.
+        let measured = |before: f32| step * (before * before + 0.3707_f32.powi(2)).sqrt();
+        // Noiseless lossless codes: rounding's half step is all bias, whether or not its own
+        // spread was measured.
         assert_eq!(code_bias_bound(step, Vec3::ZERO, false), step * 0.5);
-        // A noise of one step dithers rounding away (e^(−2π²) ≈ 3e-9).
-        assert!(code_bias_bound(step, step, false).max_element() < 1e-9);
-        // A quarter step leaves e^(−π²/8) ≈ 0.29 of it.
-        let quarter = code_bias_bound(step, step * 0.25, false).x / (0.5 * step.x);
-        assert!((quarter - (-std::f32::consts::PI.powi(2) / 8.0).exp()).abs() < 1e-4);
-        // JPEG's compression stays, noise or not.
+        let noiseless = code_bias_bound(step, measured(0.0), false);
         assert!(
-            (code_bias_bound(step, step, true) - step * 0.5)
-                .abs()
-                .max_element()
-                < 1e-9
+            (noiseless - step * 0.5).abs().max_element() < 1e-6,
+            "{noiseless}"
         );
+        // A noise of one step dithers rounding away (e^(−2π²) ≈ 3e-9).
+        assert!(code_bias_bound(step, measured(1.0), false).max_element() < 1e-8);
+        // A quarter step leaves e^(−π²/8) ≈ 0.29 of it.
+        let quarter = code_bias_bound(step, measured(0.25), false).x / (0.5 * step.x);
+        assert!((quarter - (-std::f32::consts::PI.powi(2) / 8.0).exp()).abs() < 1e-3);
+        // JPEG's compression stays, noise or not.
+        let jpeg = code_bias_bound(step, measured(1.0), true);
+        assert!((jpeg - step * 0.5).abs().max_element() < 1e-8);
         assert_eq!(code_bias_bound(Vec3::ZERO, Vec3::ZERO, true), Vec3::ZERO);
     }
 }

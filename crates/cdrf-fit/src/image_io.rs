@@ -186,7 +186,8 @@ pub enum CodeStep {
 }
 
 impl CodeStep {
-    /// The width of the code step at `value` (the step above the code `value` decodes from).
+    /// The width of the code step at `value`: the step above the code `value` decodes from (at
+    /// the top code, the step below it).
     pub fn at(self, value: f32) -> f32 {
         match self {
             Self::Float => 0.0,
@@ -489,7 +490,8 @@ fn load_camera_raw(
     }
 }
 
-/// The exact sRGB decoding curve (cdrf-core's, re-exported for this module's users).
+/// The exact sRGB curves, decoding and encoding (cdrf-core's, re-exported for this module's
+/// users).
 pub use cdrf_core::image_file::{linear_to_srgb, srgb_to_linear};
 
 fn read_error(path: &Path, error: io::Error) -> ImageError {

@@ -187,7 +187,7 @@ fn run(args: Args) -> anyhow::Result<()> {
                 continue;
             }
             eprintln!(
-                "warning: r = {} mm: too noisy to trust at theta {} deg (95 % band wider than ±{:.0} %; see report.json confidence_95)",
+                "warning: r = {} mm: too uncertain to trust at theta {} deg (95 % band, noise and file codes, wider than ±{:.0} %; see report.json confidence_95)",
                 entry.radius_mm,
                 degree_ranges(&sphere.noisy_theta_deg),
                 100.0 * cdrf_fit::fit::NOISY_BAND

@@ -105,11 +105,12 @@ pub struct ReportSphere {
     /// the pixels' noise and the files' code steps (null: not measured). See
     /// [`crate::fit::confidence_95`].
     pub confidence_95: Vec<Option<f32>>,
-    /// θ ranges (degrees) where that band is wider than ±10 %: too noisy to trust.
+    /// θ ranges (degrees) where that band is wider than ±10 %: too uncertain to trust.
     pub noisy_theta_deg: Vec<[f32; 2]>,
-    /// θ ranges (degrees) where the flagged frame carried more than ten times the light the
-    /// curve keeps: what the flag left of the room's light is a bias there that the band does
-    /// not count. See [`crate::fit::room_dominated_ranges`].
+    /// θ ranges (degrees) where the flagged frame carried more than
+    /// [`ROOM_DOMINATED`](crate::fit::ROOM_DOMINATED) times the light the curve keeps: what
+    /// the flag left of the room's light is a bias there that the band does not count. See
+    /// [`crate::fit::room_dominated_ranges`].
     pub room_dominated_theta_deg: Vec<[f32; 2]>,
 }
 
@@ -387,6 +388,9 @@ impl Report {
         let theta_deg: Vec<f32> = (0..settings.theta_count)
             .map(|a| theta_rad_at(a, settings.theta_count).to_degrees())
             .collect();
+        let bands: Vec<_> = (0..fit.spheres.len())
+            .map(|k| confidence_95(&fit.curves.chosen, k))
+            .collect();
         let spheres = fit
             .spheres
             .iter()
@@ -402,15 +406,11 @@ impl Report {
                     .collect(),
                 corrected_curve: fit.table_curves[k].iter().map(|v| v.to_array()).collect(),
                 samples_per_node: fit.curves.chosen.node_samples[k].clone(),
-                confidence_95: confidence_95(&fit.curves.chosen, k)
+                confidence_95: bands[k]
                     .iter()
                     .map(|band| band.map(NodeBand::half_width))
                     .collect(),
-                noisy_theta_deg: noisy_ranges(
-                    &confidence_95(&fit.curves.chosen, k),
-                    &theta_deg,
-                    NOISY_BAND,
-                ),
+                noisy_theta_deg: noisy_ranges(&bands[k], &theta_deg, NOISY_BAND),
                 room_dominated_theta_deg: room_dominated_ranges(&fit.curves.chosen, k, &theta_deg),
             })
             .collect();

@@ -107,9 +107,7 @@ pub fn sample_dataset(
     if strength != Vec3::ONE {
         for sphere in &mut samples {
             for sample in &mut sphere.samples {
-                sample.radiance /= strength;
-                sample.code_step /= strength;
-                sample.ambient /= strength;
+                sample.divide(strength);
             }
         }
     }

@@ -595,7 +595,7 @@ pub struct Sample {
     /// Pixel index (row-major) in its image.
     pub pixel: u32,
     /// The width of the file's code step at this value, π·L/E per channel (the photograph's
-    /// and its flagged frame's added): how far rounding can have moved `radiance`
+    /// and its flagged frame's added): rounding can have moved `radiance` by half of it
     /// ([`crate::image_io::CodeStep`]).
     pub code_step: Vec3,
     /// Whether a file behind this sample was compressed lossily (JPEG).
@@ -605,8 +605,19 @@ pub struct Sample {
     pub ambient: Vec3,
 }
 
-/// A photograph's flagged frame as [`sample_sphere`] needs it, per pixel (row-major).
-#[derive(Clone, Debug, Default)]
+impl Sample {
+    /// Divides every π·L/E quantity of the sample (radiance, code step, ambient light) by
+    /// `factor`: a light's strength, or the view's azimuth factor.
+    pub fn divide(&mut self, factor: Vec3) {
+        self.radiance /= factor;
+        self.code_step /= factor;
+        self.ambient /= factor;
+    }
+}
+
+/// A photograph's flagged frame as [`sample_sphere`] needs it, per pixel (row-major, the
+/// photograph's size).
+#[derive(Clone, Debug)]
 pub struct FlaggedFrame {
     /// The flagged frame's own pixels (already subtracted from the photograph).
     pub light: Vec<Vec3>,
@@ -640,6 +651,9 @@ pub struct DroppedPixels {
 /// `allow_negative`, which a raw-like file's noise around its black level needs) are dropped and
 /// counted. `image` is the photograph minus its `flagged` frame where there is one, which gives
 /// each sample's code steps and ambient light; else they are the image's own and zero.
+///
+/// # Panics
+/// If `flagged`'s vectors are not the image's size.
 pub fn sample_sphere(
     view: &SphereView,
     image: &LinearImage,
@@ -650,6 +664,14 @@ pub fn sample_sphere(
     flagged: Option<&FlaggedFrame>,
 ) -> (Vec<Sample>, DroppedPixels) {
     let (width, height) = (image.width as usize, image.height as usize);
+    if let Some(frame) = flagged {
+        assert!(
+            frame.light.len() == image.pixels.len() && frame.code_steps.len() == image.pixels.len(),
+            "flagged frame of {} / {} pixels for a {width} × {height} image",
+            frame.light.len(),
+            frame.code_steps.len()
+        );
+    }
     let mut samples = Vec::new();
     let mut dropped = DroppedPixels::default();
     for row in 0..height {
@@ -677,7 +699,6 @@ pub fn sample_sphere(
             }
             let (to_light, irradiance) = light.at(point.position_mm);
             let to_reflectance = std::f32::consts::PI / irradiance;
-            let at = |pixels: &[Vec3]| pixels.get(index).copied().unwrap_or(Vec3::ZERO);
             samples.push(Sample {
                 theta_rad: point.normal.dot(to_light).clamp(-1.0, 1.0).acos(),
                 phi_rad: point.normal.dot(point.to_camera).clamp(-1.0, 1.0).acos(),
@@ -686,10 +707,10 @@ pub fn sample_sphere(
                 pixel: index as u32,
                 code_step: flagged.map_or_else(
                     || image.code_step.at_rgb(value),
-                    |frame| at(&frame.code_steps),
+                    |frame| frame.code_steps[index],
                 ) * to_reflectance,
                 lossy: flagged.map_or(image.code_step.lossy(), |frame| frame.lossy),
-                ambient: flagged.map_or(Vec3::ZERO, |frame| at(&frame.light)) * to_reflectance,
+                ambient: flagged.map_or(Vec3::ZERO, |frame| frame.light[index]) * to_reflectance,
             });
         }
     }

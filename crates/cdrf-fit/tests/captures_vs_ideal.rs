@@ -12,11 +12,11 @@
 //! Where they hold and where not (docs/captures.md has the table): the fit divides out the view's
 //! azimuth (the lamp is 83° from the camera, 53–62° in the several-sphere photograph) and finds
 //! each silhouette against the wall to a tenth of a pixel, so every lit side and terminator of
-//! the single-sphere sets is within 2 % / 4 %; the 8-bit JPEG's shadow sides are inside the band,
-//! which counts the files' code steps. Not yet: the shadow side of the 50 mm sphere (room light
+//! the single-sphere sets is within 2 % / 4 %; the 8-bit JPEG's shadow sides up to 30 mm are
+//! inside the band, which counts the files' code steps. Not yet: the shadow side of the 50 mm sphere (room light
 //! the flagged frame cannot remove), and the several-sphere photograph's terminators and shadow
-//! sides (few samples per pixel); the fit warns of each (the flagged frame carried more than ten
-//! times the lamp's light there), and this test fails a shadow side that misses both the bound
+//! sides (few samples per pixel); the fit warns of each (the flagged frame carried more than
+//! three times the lamp's light there), and this test fails a shadow side that misses both the bound
 //! and the band unwarned. What this
 //! test holds every capture to is what the fit reaches today, so that it cannot get worse
 //! unnoticed: see [`held_to`].
@@ -72,7 +72,8 @@ fn region_band(fit: &Fit, k: usize, from: f32, to: f32) -> f32 {
         .enumerate()
         .filter(|(i, _)| (from..to).contains(&(*i as f32 / (count - 1) as f32 * 180.0)))
         .filter_map(|(_, b)| *b);
-    NodeBand::pool(in_region).map_or(f32::INFINITY, NodeBand::half_width)
+    // A region with no measured node has no band: nothing is inside it.
+    NodeBand::pool(in_region).map_or(f32::NAN, NodeBand::half_width)
 }
 
 /// Whether the fit warned that the room dominated sphere `k` somewhere in `[from, to)` degrees.
@@ -149,9 +150,9 @@ fn check(case: &str) -> Vec<String> {
 ///   (its lamp 53–62° from the camera: what the view's azimuth model leaves; see the module
 ///   docs);
 /// - shadow side: issue 38's 15 % for the RAW-like and the ideal-sensor sets up to r = 30 mm;
-///   15 % or the band for JPEG (its 8-bit codes and compression, which the band counts); the
-///   50 mm sphere of the linear sets (room light the flag leaves) and the several-sphere
-///   photograph (rendered at few samples) are printed only.
+///   15 % or the band for JPEG up to 30 mm (its 8-bit codes and compression, which the band
+///   counts); the 50 mm spheres (room light the flag leaves) and the several-sphere photograph
+///   (rendered at few samples) are printed only, and must be warned about where they miss.
 fn held_to(case: &str, radius_mm: f32, region: &str) -> Option<(f32, bool)> {
     match region {
         "lit" if case == "multi" => Some((0.03, false)),
@@ -159,7 +160,7 @@ fn held_to(case: &str, radius_mm: f32, region: &str) -> Option<(f32, bool)> {
         "terminator" if case == "multi" => Some((0.08, false)),
         "terminator" => Some((0.04, false)),
         "shadow" if matches!(case, "raw14" | "lamp") && radius_mm <= 30.0 => Some((0.15, false)),
-        "shadow" if case == "jpeg" => Some((0.15, true)),
+        "shadow" if case == "jpeg" && radius_mm <= 30.0 => Some((0.15, true)),
         _ => None,
     }
 }

@@ -168,8 +168,9 @@ fn through_medium(ray: vec3<f32>, shape: LocalShape, q: vec3<f32>, tolerance_mm:
 // is the circle's. The gain grows with how much thinner it is (per channel, on the scale of the
 // transmission length ℓ_T) and with the thickness itself (light that crossed a body a few ℓ_T
 // thick; a 7 mm strand barely), to at most 1 + CONFINEMENT_GAIN, faded in from θ = 100° to 120°
-// (nearer the terminator the light runs along the surface). Fitted to the blob and capsule lit
-// from behind and the torus (docs/research/thick-bodies.md).
+// (nearer the terminator the light runs along the surface). A point flat or concave along the
+// light counts as thinner than any circle. Fitted to the blob and capsule lit from behind and
+// the torus (docs/research/thick-bodies.md).
 const CONFINEMENT_GAIN: f32 = 1.0;
 const CONFINEMENT_THICKNESS_LENGTHS: f32 = 2.0;
 const CONFINEMENT_TOLERANCE_MM: f32 = 1.0;
@@ -179,13 +180,10 @@ fn confinement_gain(thickness_mm: f32, along: f32, light_curvature_per_mm: f32) 
     if thickness_mm <= 0.0 || along <= 0.0 {
         return vec3<f32>(1.0);
     }
-    // Flat or concave along the light, the circle's chord is unbounded: the limit of a
-    // vanishing curvature, so that the gain is continuous where the curvature changes sign.
-    var thinner_mm = thickness_mm;
-    if light_curvature_per_mm > 1e-3 {
-        let chord_mm = 2.0 * along / light_curvature_per_mm;
-        thinner_mm = clamp(chord_mm - thickness_mm - CONFINEMENT_TOLERANCE_MM, 0.0, thickness_mm);
-    }
+    // Flat or concave along the light, the circle's chord is unbounded (the limit of a
+    // vanishing curvature, so the gain is continuous where the curvature changes sign).
+    let chord_mm = 2.0 * along / max(light_curvature_per_mm, 1e-6);
+    let thinner_mm = clamp(chord_mm - thickness_mm - CONFINEMENT_TOLERANCE_MM, 0.0, thickness_mm);
     let length_mm = material.transmission_length_mm;
     let thick = 1.0 - exp(-thickness_mm / (CONFINEMENT_THICKNESS_LENGTHS * length_mm));
     let deep = smoothstep(0.17, 0.5, along);
