@@ -725,10 +725,10 @@ fn radiance_plot(fit: &Fit) -> String {
                 .enumerate()
                 .map(|(a, (v, b))| {
                     let theta = theta_rad_at(a, settings.theta_count).to_degrees();
-                    (
-                        theta,
-                        b.map_or(f32::NAN, |b| v.y * (1.0 + sign * b.half_width())),
-                    )
+                    // A band of ±100 % or more says "not measured": not drawn (its edge would
+                    // stretch the log axis by decades).
+                    let width = b.map(NodeBand::half_width).filter(|&w| w < 1.0);
+                    (theta, width.map_or(f32::NAN, |w| v.y * (1.0 + sign * w)))
                 })
                 .collect()
         };
