@@ -739,11 +739,8 @@ fn decode_with_image(
         .decode()
         .map_err(|error| image_error(path, format, error))?;
     let (width, height) = (decoded.width(), decoded.height());
-    let max_u8 = if format == ImageFormat::Jpeg {
-        JPEG_SATURATION_CODE
-    } else {
-        u8::MAX
-    };
+    let lossy = format == ImageFormat::Jpeg;
+    let max_u8 = if lossy { JPEG_SATURATION_CODE } else { u8::MAX };
     if let Some(levels) = levels {
         if color_space == Some(ColorSpace::Srgb) {
             return Err(levels_error(
@@ -773,12 +770,7 @@ fn decode_with_image(
                 ),
             ));
         }
-        return Ok(convert_levels(
-            &decoded,
-            levels,
-            exposure,
-            format == ImageFormat::Jpeg,
-        ));
+        return Ok(convert_levels(&decoded, levels, exposure, lossy));
     }
     let (pixels, saturated, sample_format, color_space) = match &decoded {
         DynamicImage::ImageLuma8(b) => convert_u8(b.as_raw(), 1, color_space, exposure, max_u8),
@@ -798,7 +790,6 @@ fn decode_with_image(
             });
         }
     };
-    let lossy = format == ImageFormat::Jpeg;
     let code_step = match sample_format {
         SampleFormat::U8 => CodeStep::of_codes(255.0, color_space, exposure, lossy),
         SampleFormat::U16 => CodeStep::of_codes(65535.0, color_space, exposure, lossy),

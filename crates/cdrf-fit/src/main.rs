@@ -172,26 +172,22 @@ fn run(args: Args) -> anyhow::Result<()> {
             }
         }
         for (sphere, entry) in report.spheres.iter().zip(&fit.spheres) {
-            if sphere.room_dominated_theta_deg.is_empty() {
-                continue;
+            if !sphere.room_dominated_theta_deg.is_empty() {
+                eprintln!(
+                    "warning: r = {} mm: at theta {} deg the flagged frame carried more than {:.0} times the lamp's light; a flag leaves part of the room's (and lit neighbours') light, a bias there the band does not count (darken the room: docs/captures.md)",
+                    entry.radius_mm,
+                    degree_ranges(&sphere.room_dominated_theta_deg),
+                    cdrf_fit::fit::ROOM_DOMINATED
+                );
             }
-            eprintln!(
-                "warning: r = {} mm: at theta {} deg the flagged frame carried more than {:.0} times the lamp's light; a flag leaves part of the room's (and lit neighbours') light, a bias there the band does not count (darken the room: docs/captures.md)",
-                entry.radius_mm,
-                degree_ranges(&sphere.room_dominated_theta_deg),
-                cdrf_fit::fit::ROOM_DOMINATED
-            );
-        }
-        for (sphere, entry) in report.spheres.iter().zip(&fit.spheres) {
-            if sphere.noisy_theta_deg.is_empty() {
-                continue;
+            if !sphere.noisy_theta_deg.is_empty() {
+                eprintln!(
+                    "warning: r = {} mm: too uncertain to trust at theta {} deg (95 % band, noise and file codes, wider than ±{:.0} %; see report.json confidence_95)",
+                    entry.radius_mm,
+                    degree_ranges(&sphere.noisy_theta_deg),
+                    100.0 * cdrf_fit::fit::NOISY_BAND
+                );
             }
-            eprintln!(
-                "warning: r = {} mm: too uncertain to trust at theta {} deg (95 % band, noise and file codes, wider than ±{:.0} %; see report.json confidence_95)",
-                entry.radius_mm,
-                degree_ranges(&sphere.noisy_theta_deg),
-                100.0 * cdrf_fit::fit::NOISY_BAND
-            );
         }
         eprintln!(
             "Gaussian CDRF: sigma_mm = [{:.2}, {:.2}, {:.2}]",
