@@ -120,8 +120,11 @@ fn vertex_non_local(
         terms.gather = subsurface_gather(index, shape);
         let v = terms.visibility;
         if SHADOWS && any(v < vec3<f32>(1.0)) {
+            // s read at the mean curvature: the sphere whose shadow side stands for the body
+            // around the point (both directions confine the light), not the flatter circle along
+            // the light, whose large sphere's shadow side the photographs barely measure.
             let to_light = light_incidence(frame.lights[index], world_position).to_light;
-            let gain = subsurface_gain_value(light_curvature_per_mm, angle(dot(normal, to_light)));
+            let gain = subsurface_gain_value(curvature_per_mm, angle(dot(normal, to_light)));
             terms.gather *= v + (vec3<f32>(1.0) - v) * gain;
         }
         terms.gather *= confinement_gain(
