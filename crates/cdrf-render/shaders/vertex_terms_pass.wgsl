@@ -122,10 +122,13 @@ fn vertex_non_local(
         if SHADOWS && any(v < vec3<f32>(1.0)) {
             // s read at the mean curvature: the sphere whose shadow side stands for the body
             // around the point (both directions confine the light), not the flatter circle along
-            // the light, whose large sphere's shadow side the photographs barely measure.
+            // the light, whose large sphere's shadow side the photographs barely measure. s is
+            // that sphere's own correction of the profile; a body that is not the sphere gets
+            // half of it in log (√s): a 15 mm cap at the end of a 70 mm capsule is not lit
+            // through 15 mm of wax (docs/shading.md).
             let to_light = light_incidence(frame.lights[index], world_position).to_light;
             let gain = subsurface_gain_value(curvature_per_mm, angle(dot(normal, to_light)));
-            terms.gather *= v + (vec3<f32>(1.0) - v) * gain;
+            terms.gather *= v + (vec3<f32>(1.0) - v) * sqrt(gain);
         }
         terms.gather *= confinement_gain(
             terms.thickness_mm,
