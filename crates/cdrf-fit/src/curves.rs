@@ -170,6 +170,30 @@ pub(crate) fn median(values: &mut [f32]) -> Option<f32> {
     Some(*m)
 }
 
+/// A robust spread (1.4826 × the median absolute value: σ for Gaussian deviations) of each
+/// band's and channel's deviations, where there are at least `min_count` of them (reorders
+/// them).
+fn band_spreads(deviations: &mut [[Vec<f32>; 3]], min_count: usize) -> Vec<[Option<f32>; 3]> {
+    deviations
+        .iter_mut()
+        .map(|channels| {
+            channels.each_mut().map(|values| {
+                (values.len() >= min_count.max(1))
+                    .then(|| median(values))
+                    .flatten()
+                    .map(|m| 1.4826 * m)
+            })
+        })
+        .collect()
+}
+
+/// The floor under a curve's model values (per channel): MODEL_FLOOR of its peak, at least
+/// 10⁻¹²; below it a ratio to the model measures the floor, not the curve.
+fn model_floor(curve: &[Vec3]) -> Vec3 {
+    let peak = curve.iter().fold(Vec3::ZERO, |m, v| m.max(*v));
+    (peak * MODEL_FLOOR).max(Vec3::splat(1e-12))
+}
+
 /// Bilinear coordinates on the coarse correction grid.
 #[derive(Clone, Copy, Debug)]
 struct Coarse {
@@ -348,8 +372,7 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
         fit.outliers[k] = sphere_points.iter().filter(|p| p.outlier.any()).count();
         let mut counts = vec![0.0_f32; theta_count];
         let model_at = |p: &Point| fit.model_at(k, &p.basis);
-        let peak = fit.curves[k].iter().fold(Vec3::ZERO, |m, v| m.max(*v));
-        let floor = (peak * MODEL_FLOOR).max(Vec3::splat(1e-12));
+        let floor = model_floor(&fit.curves[k]);
         // Absolute noise per band (what dithers the codes; the relative noise is floored).
         let mut deviations: Vec<[Vec<f32>; 3]> = vec![Default::default(); BANDS];
         for p in sphere_points.iter().filter(|p| !p.outlier.any()) {
@@ -358,13 +381,9 @@ fn finish(mut fit: CurveFit, points: &[Vec<Point>], noise: &[[Vec3; BANDS]]) -> 
                 deviations[p.band as usize][c].push(residual[c]);
             }
         }
-        let sigma: Vec<Vec3> = deviations
-            .iter_mut()
-            .map(|channels| {
-                Vec3::from_array(std::array::from_fn(|c| {
-                    median(&mut channels[c]).map_or(0.0, |m| 1.4826 * m)
-                }))
-            })
+        let sigma: Vec<Vec3> = band_spreads(&mut deviations, 1)
+            .into_iter()
+            .map(|spread| Vec3::from_array(spread.map(|s| s.unwrap_or(0.0))))
             .collect();
         let mut bound = vec![Vec3::ZERO; theta_count];
         let mut ambient = vec![Vec3::ZERO; theta_count];
@@ -440,8 +459,7 @@ fn reweight_points(
         .zip(noise.par_iter_mut())
         .enumerate()
         .for_each(|(k, (sphere_points, noise))| {
-            let peak = fit.curves[k].iter().fold(Vec3::ZERO, |m, v| m.max(*v));
-            let floor = (peak * MODEL_FLOOR).max(Vec3::splat(1e-12));
+            let floor = model_floor(&fit.curves[k]);
             let model = |p: &Point| fit.model_at(k, &p.basis).max(floor);
             // Relative deviations per band and channel, only where the model is above its floor
             // (below it the ratio measures the floor, not the noise).
@@ -455,13 +473,10 @@ fn reweight_points(
                     }
                 }
             }
-            for (band, channels) in deviations.iter_mut().enumerate() {
-                for (c, values) in channels.iter_mut().enumerate() {
-                    if values.len() < 16 {
-                        continue;
-                    }
-                    if let Some(median) = median(values) {
-                        noise[band][c] = (1.4826 * median).max(2e-3);
+            for (band, spread) in band_spreads(&mut deviations, 16).into_iter().enumerate() {
+                for (c, spread) in spread.into_iter().enumerate() {
+                    if let Some(spread) = spread {
+                        noise[band][c] = spread.max(2e-3);
                     }
                 }
             }
