@@ -42,7 +42,8 @@ pub const REACH_LENGTHS: f64 = 12.0;
 pub const GAIN_FROM_THETA_DEG: f32 = 100.0;
 
 /// Bounds on the shadow gain: where `F_sphere` and the table both fade (deep shadow of a large
-/// sphere) their ratio is the table's noise.
+/// sphere) their ratio is the table's noise. (The renderer applies its square root, so
+/// 0.5–2.)
 pub const GAIN_RANGE: [f32; 2] = [0.25, 4.0];
 
 /// A material's subsurface gather tables. `near` and `gain` lie on the measured table's axes:

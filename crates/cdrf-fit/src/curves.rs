@@ -170,9 +170,9 @@ pub(crate) fn median(values: &mut [f32]) -> Option<f32> {
     Some(*m)
 }
 
-/// A robust spread (1.4826 × the median absolute value: σ for Gaussian deviations) of each
-/// band's and channel's deviations, where there are at least `min_count` of them (reorders
-/// them).
+/// A robust spread (1.4826 × the median: σ for the absolute values of Gaussian deviations,
+/// which the callers pass) of each band's and channel's deviations, where there are at least
+/// `min_count` of them (reorders them).
 fn band_spreads(deviations: &mut [[Vec<f32>; 3]], min_count: usize) -> Vec<[Option<f32>; 3]> {
     deviations
         .iter_mut()

@@ -95,7 +95,7 @@ fn shadow_shape_curvature_per_mm(mean_per_mm: f32, along_light_per_mm: f32) -> f
 }
 
 // The per-vertex terms of shadowed light `index`: visibility and T(d, μ) from the shadow map,
-// or with the subsurface gather G (scaled on the shadow side by s(κ, θ)) instead of T.
+// or with the subsurface gather G (where V < 1 scaled by √s at the mean curvature) instead of T.
 fn vertex_non_local(
     index: u32,
     world_position: vec3<f32>,
@@ -121,11 +121,11 @@ fn vertex_non_local(
         let v = terms.visibility;
         if SHADOWS && any(v < vec3<f32>(1.0)) {
             // s read at the mean curvature: the sphere whose shadow side stands for the body
-            // around the point (both directions confine the light), not the flatter circle along
-            // the light, whose large sphere's shadow side the photographs barely measure. s is
-            // that sphere's own correction of the profile; a body that is not the sphere gets
-            // half of it in log (√s): a 15 mm cap at the end of a 70 mm capsule is not lit
-            // through 15 mm of wax (docs/shading.md).
+            // around the point (both directions confine the light). Along the light, a face lit
+            // at grazing angles would read the largest sphere's shadow side, which the
+            // photographs barely measure. s is that sphere's own correction of the profile; a
+            // body that is not the sphere gets half of it in log (√s): the 15 mm cap at the end
+            // of a 70 mm capsule is lit through the capsule's length (docs/shading.md).
             let to_light = light_incidence(frame.lights[index], world_position).to_light;
             let gain = subsurface_gain_value(curvature_per_mm, angle(dot(normal, to_light)));
             terms.gather *= v + (vec3<f32>(1.0) - v) * sqrt(gain);
