@@ -170,18 +170,22 @@ pub(crate) fn median(values: &mut [f32]) -> Option<f32> {
     Some(*m)
 }
 
-/// A robust spread (1.4826 × the median: σ for the absolute values of Gaussian deviations,
-/// which the callers pass) of each band's and channel's deviations, where there are at least
-/// `min_count` of them (reorders them).
+/// A robust spread of absolute deviations: 1.4826 × their median, σ for Gaussian ones (`None`
+/// when empty; reorders them).
+pub(crate) fn robust_spread(absolute_deviations: &mut [f32]) -> Option<f32> {
+    median(absolute_deviations).map(|m| 1.4826 * m)
+}
+
+/// [`robust_spread`] of each band's and channel's absolute deviations, where there are at least
+/// `min_count` of them.
 fn band_spreads(deviations: &mut [[Vec<f32>; 3]], min_count: usize) -> Vec<[Option<f32>; 3]> {
     deviations
         .iter_mut()
         .map(|channels| {
             channels.each_mut().map(|values| {
-                (values.len() >= min_count.max(1))
-                    .then(|| median(values))
+                (values.len() >= min_count)
+                    .then(|| robust_spread(values))
                     .flatten()
-                    .map(|m| 1.4826 * m)
             })
         })
         .collect()

@@ -9,7 +9,7 @@
 //! that α, plus one bin, is dropped — the lobe's tails with its core, never only the brightest
 //! pixels, which would leave a bias the size of the tails.
 
-use crate::curves::median;
+use crate::curves::{median, robust_spread};
 use crate::sphere::Sample;
 
 /// Lit-side pixels only: a highlight needs the light on the surface.
@@ -66,7 +66,7 @@ pub fn reject_highlights(
         }
         let m = median(bin).unwrap_or(0.0);
         let mut deviations: Vec<f32> = bin.iter().map(|v| (v - m).abs()).collect();
-        let spread = 1.4826 * median(&mut deviations).unwrap_or(0.0);
+        let spread = robust_spread(&mut deviations).unwrap_or(0.0);
         let standard_error = 1.25 * spread / (bin.len() as f32).sqrt();
         if m - baseline > (4.0 * standard_error).max(0.01) {
             extent = Some(k);
