@@ -23,10 +23,12 @@
 //! changes by several percent, which a binned fit would mistake for a φ effect). Weights are
 //! inverse variances: the relative noise of each sphere's 10° θ band is re-estimated from the
 //! residuals (a robust median of absolute deviations) and a sample's weight is
-//! `1 / (noise · model)²`. Samples off their model by more than 6 noise units (glints, dust) are
-//! dropped as outliers. Nodes with no samples (θ near 0° and 180° lie on the silhouette) are
-//! filled by a light first-difference penalty: flat toward the ends, as f's even symmetry about
-//! 0 and π requires, and linear across gaps.
+//! `1 / (noise · model)²`, at the model of the last reweighting (for the view factors, at the
+//! model as it is when they are fitted where it has more than doubled since). Samples off their
+//! model by more than 6 noise units (glints, dust) are dropped as outliers. Nodes with no
+//! samples (θ near 0° and 180° lie on the silhouette) are filled by a light first-difference
+//! penalty: flat toward the ends, as f's even symmetry about 0 and π requires, and linear
+//! across gaps.
 
 use cdrf_core::linear::{SingularColumn, solve_gaussian, solve_tridiagonal};
 use glam::Vec3;
@@ -251,6 +253,10 @@ struct Point {
     radiance: Vec3,
     /// Inverse-variance weight per channel; 0 for an outlier.
     weight: Vec3,
+    /// Its band's relative noise at the last reweighting (0 before the first).
+    relative_noise: Vec3,
+    /// The model (floored) its weight was computed at.
+    weighted_model: Vec3,
     /// Per channel: dropped as an outlier (stays dropped).
     outlier: glam::BVec3,
     /// 10° θ band, for the noise estimate.
@@ -262,6 +268,28 @@ struct Point {
     /// See [`Sample::ambient`].
     ambient: Vec3,
 }
+
+impl Point {
+    /// The weight for the view factors, which are fitted after f, at the model as it is then
+    /// (floored like the weights): where the model has more than doubled since the last
+    /// reweighting (f at a sparse shadow-side node that lost most of its samples as outliers),
+    /// the stale weight 1/(noise·model)² would let its few samples outweigh the lit side's
+    /// thousands at their φ. Elsewhere the weight is kept as it was.
+    fn weight_now(&self, model: Vec3) -> Vec3 {
+        let sigma = self.relative_noise * model;
+        let stale =
+            model.cmpgt(self.weighted_model * MODEL_GROWTH) & self.relative_noise.cmpgt(Vec3::ZERO);
+        Vec3::select(
+            stale & !self.outlier,
+            Vec3::ONE / (sigma * sigma),
+            self.weight,
+        )
+    }
+}
+
+/// How much a sample's model may grow between reweightings before its weight is recomputed
+/// for the view factors ([`Point::weight_now`]).
+const MODEL_GROWTH: f32 = 2.0;
 
 const BANDS: usize = 18;
 
@@ -296,6 +324,8 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
                     basis: Basis::new(s.theta_rad, s.phi_rad, &settings),
                     radiance: s.radiance,
                     weight: Vec3::ONE,
+                    relative_noise: Vec3::ZERO,
+                    weighted_model: Vec3::ZERO,
                     outlier: glam::BVec3::FALSE,
                     band: ((s.theta_rad.to_degrees() / 10.0) as usize).min(BANDS - 1) as u8,
                     code_step: s.code_step,
@@ -492,6 +522,8 @@ fn reweight_points(
                 }
                 let weight = Vec3::ONE / (sigma * sigma);
                 p.weight = Vec3::select(p.outlier, Vec3::ZERO, weight);
+                p.relative_noise = noise[p.band as usize];
+                p.weighted_model = m;
             }
         });
 }
@@ -568,6 +600,7 @@ fn fit_g(fit: &mut CurveFit, points: &[Vec<Point>]) {
         .enumerate()
         .map(|(k, sphere_points)| {
             let (mut diagonal, mut upper, mut rhs) = zero();
+            let floor = model_floor(&fit.curves[k]);
             for p in sphere_points {
                 let mut f = hat(&fit.curves[k], p.basis.theta);
                 if let Some(c) = &fit.correction {
@@ -576,7 +609,8 @@ fn fit_g(fit: &mut CurveFit, points: &[Vec<Point>]) {
                 let (b, t) = p.basis.phi;
                 let b = b as usize;
                 let (b0, b1) = (1.0 - t, t);
-                let wf = p.weight * f;
+                let weight = p.weight_now(fit.model_at(k, &p.basis).max(floor));
+                let wf = weight * f;
                 let wff = wf * f;
                 diagonal[b] += wff * (b0 * b0);
                 diagonal[b + 1] += wff * (b1 * b1);
@@ -617,11 +651,15 @@ fn fit_correction(fit: &mut CurveFit, points: &[Vec<Point>]) {
         .enumerate()
         .map(|(k, sphere_points)| {
             let (mut matrix, mut rhs) = (vec![[Vec3::ZERO; N]; N], vec![Vec3::ZERO; N]);
+            let floor = model_floor(&fit.curves[k]);
             // c lives on a 10° grid: every other sample still gives it thousands per node.
             for p in sphere_points.iter().step_by(2) {
                 let g = hat(&fit.g_phi, p.basis.phi);
                 let fg = hat(&fit.curves[k], p.basis.theta) * g;
-                let wfg = p.weight * fg;
+                let c = previous
+                    .get(k)
+                    .map_or(Vec3::ONE, |c| p.basis.coarse.evaluate(c));
+                let wfg = p.weight_now((fg * c).max(floor)) * fg;
                 let nodes = p.basis.coarse.nodes();
                 for &(i, wi) in &nodes {
                     rhs[i] += wfg * p.radiance * wi;
@@ -691,6 +729,36 @@ fn solve_dense<const N: usize>(matrix: Vec<[Vec3; N]>, rhs: Vec<Vec3>) -> Option
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn point(weight: Vec3, relative_noise: Vec3, weighted_model: Vec3) -> Point {
+        Point {
+            basis: Basis::new(0.5, 0.5, &CurveSettings::default()),
+            radiance: Vec3::ONE,
+            weight,
+            relative_noise,
+            weighted_model,
+            outlier: glam::BVec3::new(false, false, true),
+            band: 0,
+            code_step: Vec3::ZERO,
+            lossy: false,
+            ambient: Vec3::ZERO,
+        }
+    }
+
+    #[test]
+    fn a_view_factor_weight_is_recomputed_only_where_the_model_more_than_doubled() {
+        // Weighted at model 1 with noise 0.1: weight 100 (blue an outlier, weight 0).
+        let p = point(Vec3::new(100.0, 100.0, 0.0), Vec3::splat(0.1), Vec3::ONE);
+        // Red grew 1.5×: kept. Green grew 10×: 1/(0.1·10)² = 1. Blue stays an outlier.
+        let w = p.weight_now(Vec3::new(1.5, 10.0, 10.0));
+        assert_eq!(w.x, 100.0);
+        assert!((w.y - 1.0).abs() < 1e-5, "{w}");
+        assert_eq!(w.z, 0.0);
+        // A shrunk model keeps its weight; so does every sample before the first reweighting.
+        assert_eq!(p.weight_now(Vec3::splat(0.01)), p.weight);
+        let start = point(Vec3::ONE, Vec3::ZERO, Vec3::ZERO);
+        assert_eq!(start.weight_now(Vec3::splat(5.0)), Vec3::ONE);
+    }
 
     #[test]
     fn code_bias_is_half_a_step_without_noise_and_dithered_away_with_it() {

@@ -2,7 +2,7 @@
 
 use std::time::Instant;
 
-use cdrf_core::lut::{CdrfLut, Filter};
+use cdrf_core::lut::{CdrfLut, Filter, theta_rad_at};
 use cdrf_core::translucency::Translucency;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -22,6 +22,7 @@ use crate::photographs::LightReport;
 use crate::photographs::sample_dataset;
 use crate::sphere::{Circle, DetectionError, DroppedPixels};
 use crate::table::{TableError, build_table, smooth_curve};
+use crate::tails;
 use crate::transmission::{
     TransmissionError, TransmissionFit, TransmissionSettings, fit_curve_fit,
 };
@@ -249,6 +250,10 @@ pub struct Fit {
     /// The chosen fit's curves as they entered the table (filled and smoothed along θ), per
     /// sphere.
     pub table_curves: Vec<Vec<Vec3>>,
+    /// Per sphere, the θ (degrees) from which its table curve is the diffusion profile's
+    /// continuation, not the photograph ([`crate::tails`]); `None`: not continued (measured to
+    /// 180°, or no diffusion profile could be fitted).
+    pub continued_from_theta_deg: Vec<Option<f32>>,
     /// The samples, per sphere (input order); where a camera was not at 90° to the light, as a
     /// camera there would have seen them (the view's azimuth divided out).
     pub samples: Vec<SphereSamples>,
@@ -398,12 +403,29 @@ pub fn fit_samples(
         report.outliers = *outliers;
     }
 
+    // The profile first: the table continues with it where the photographs could not measure.
     let started = Instant::now();
-    let table_curves: Vec<Vec<Vec3>> = (0..samples.len())
+    let diffusion = fit_diffusion_curve_fit(&curves.chosen, &curvatures, &options.diffusion);
+    timings.diffusion_s = started.elapsed().as_secs_f64();
+
+    let started = Instant::now();
+    let mut table_curves: Vec<Vec<Vec3>> = (0..samples.len())
         .map(|k| smooth_curve(&curves.chosen, k))
         .collect();
+    let continued_from = match &diffusion {
+        Ok(diffusion) => {
+            let cuts = tails::cuts(&curves.chosen);
+            tails::continue_curves(&mut table_curves, &curvatures, &cuts, &diffusion.profile);
+            cuts
+        }
+        Err(_) => vec![None; samples.len()],
+    };
+    let continued_from_theta_deg = continued_from
+        .iter()
+        .map(|cut| cut.map(|i| theta_rad_at(i, settings.theta_count).to_degrees()))
+        .collect();
     let lut = build_table(
-        &curves.chosen,
+        &tails::coverage_fit(&curves.chosen, &continued_from),
         &table_curves,
         &curvatures,
         options.curvature_count,
@@ -427,13 +449,10 @@ pub fn fit_samples(
     };
     timings.transmission_s = started.elapsed().as_secs_f64();
 
-    let started = Instant::now();
-    let diffusion = fit_diffusion_curve_fit(&curves.chosen, &curvatures, &options.diffusion);
     let lut = match &diffusion {
         Ok(fit) => lut.with_diffusion_profile(fit.profile.clone()),
         Err(_) => lut,
     };
-    timings.diffusion_s = started.elapsed().as_secs_f64();
 
     let started = Instant::now();
     let errors = samples
@@ -492,6 +511,7 @@ pub fn fit_samples(
         diffusion_settings: options.diffusion.clone(),
         curves,
         table_curves,
+        continued_from_theta_deg,
         samples,
         spheres,
         errors,
@@ -590,7 +610,7 @@ pub fn noisy_ranges(band: &[Option<NodeBand>], theta_deg: &[f32], limit: f32) ->
 }
 
 /// How many nodes of `theta_deg` make 1°.
-fn one_degree_nodes(theta_deg: &[f32]) -> usize {
+pub(crate) fn one_degree_nodes(theta_deg: &[f32]) -> usize {
     let step = theta_deg.get(1).map_or(1.0, |t| t - theta_deg[0]).max(1e-3);
     (1.0 / step).round().max(0.0) as usize
 }

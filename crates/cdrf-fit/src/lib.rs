@@ -3,9 +3,11 @@
 //!
 //! The pipeline ([`fit`]): [`dataset`] (the manifest), [`image_io`] (linear radiance),
 //! [`sphere`] (silhouette, θ and φ per pixel), [`curves`] (f(θ; κ) and the view correction),
-//! [`table`] (the `CdrfLut`), [`gaussian_fit`] (Kubo's Gaussian CDRF, whose σ is also the
-//! scattering length of the table's translucency), [`transmission`] (the light through the
-//! material, `T(d, μ) = A·μ·exp(−d/ℓ)`, from the spheres' shadow sides), [`evaluate`] (errors) and
+//! [`table`] (the `CdrfLut`; [`tails`] continues a shadow side past what the photographs
+//! measured with the diffusion profile's fall-off), [`gaussian_fit`] (Kubo's Gaussian CDRF,
+//! whose σ is also the scattering length of the table's translucency), [`transmission`] (the
+//! light through the material, `T(d, μ) = A·μ·exp(−d/ℓ)`, from the spheres' shadow sides),
+//! [`evaluate`] (errors) and
 //! [`outputs`] / [`plot`] (the files).
 //!
 //! Without photographs, [`preset`] makes the same two files the renderer reads (`measured.exr`,
@@ -44,6 +46,7 @@ pub mod preset;
 pub mod simulation;
 pub mod sphere;
 pub mod table;
+pub mod tails;
 pub mod transmission;
 
 pub use fit::{Fit, FitError, FitOptions, fit_dataset};

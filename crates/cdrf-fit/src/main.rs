@@ -180,6 +180,17 @@ fn run(args: Args) -> anyhow::Result<()> {
                     cdrf_fit::fit::ROOM_DOMINATED
                 );
             }
+            // The last 10° before the anti-light pole are silhouette pixels on every photograph.
+            if let Some(from) = sphere.continued_from_theta_deg
+                && from < 170.0
+            {
+                eprintln!(
+                    "note: r = {} mm: from theta {from:.1} deg on, the table holds the diffusion profile's fall-off, matched to the {:.0} deg before (the photograph's 95 % band was wider than ±{:.0} % there, or nothing was measured)",
+                    entry.radius_mm,
+                    cdrf_fit::tails::MATCH_DEG,
+                    100.0 * cdrf_fit::tails::CONTINUE_BAND
+                );
+            }
             if !sphere.noisy_theta_deg.is_empty() {
                 eprintln!(
                     "warning: r = {} mm: too uncertain to trust at theta {} deg (95 % band, noise and file codes, wider than ±{:.0} %; see report.json confidence_95)",

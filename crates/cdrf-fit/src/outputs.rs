@@ -112,6 +112,10 @@ pub struct ReportSphere {
     /// the flag left of the room's light is a bias there that the band does not count. See
     /// [`crate::fit::room_dominated_ranges`].
     pub room_dominated_theta_deg: Vec<[f32; 2]>,
+    /// θ (degrees) from which `corrected_curve` is the diffusion profile's continuation, not
+    /// the photograph (null: not continued — measured to 180°, or no profile). See
+    /// [`crate::tails`].
+    pub continued_from_theta_deg: Option<f32>,
 }
 
 /// `report.json`.
@@ -412,6 +416,7 @@ impl Report {
                     .collect(),
                 noisy_theta_deg: noisy_ranges(&bands[k], &theta_deg, NOISY_BAND),
                 room_dominated_theta_deg: room_dominated_ranges(&fit.curves.chosen, k, &theta_deg),
+                continued_from_theta_deg: fit.continued_from_theta_deg[k],
             })
             .collect();
         let phi_table = |values: &[Vec3]| -> Vec<(f32, [f32; 3])> {

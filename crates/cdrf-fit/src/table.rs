@@ -130,7 +130,8 @@ const MAX_HALF_WINDOW: usize = 12;
 /// changes there; on the noisy shadow side the window widens. Fitting lines in log f follows
 /// the shadow side's exponential fall-off without flattening it. Nodes without data (θ near
 /// 0° and 180°, on the silhouette) keep the curve fit's fill: flat toward the ends, as f's even
-/// symmetry about 0 and π requires (see [`crate::curves`]).
+/// symmetry about 0 and π requires (see [`crate::curves`]); on the shadow side the fit then
+/// replaces what was not measured by the diffusion profile's fall-off ([`crate::tails`]).
 pub fn smooth_curve(fit: &CurveFit, sphere: usize) -> Vec<Vec3> {
     let curve = &fit.curves[sphere];
     let counts = &fit.node_samples[sphere];

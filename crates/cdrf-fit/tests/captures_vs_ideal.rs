@@ -13,11 +13,14 @@
 //! azimuth (the lamp is 83° from the camera, 53–62° in the several-sphere photograph) and finds
 //! each silhouette against the wall to a tenth of a pixel, so every lit side and terminator of
 //! the single-sphere sets is within 2 % / 4 %; the 8-bit JPEG's shadow sides up to 30 mm are
-//! inside the band, which counts the files' code steps. Not yet: the shadow side of the 50 mm sphere (room light
-//! the flagged frame cannot remove), and the several-sphere photograph's terminators and shadow
-//! sides (few samples per pixel); the fit warns of each (the flagged frame carried more than
-//! three times the lamp's light there), and this test fails a shadow side that misses both the bound
-//! and the band unwarned. What this
+//! inside the band, which counts the files' code steps; where a shadow side's band passes ±40 %
+//! the table continues with the diffusion profile (`cdrf_fit::tails`), which holds the
+//! several-sphere photograph's 10 mm sphere within 15 %. Not yet: the shadow side of the 50 mm
+//! sphere (room light the flagged frame cannot remove), the several-sphere photograph's other
+//! shadow sides (few samples per pixel), its 50 and 20 mm terminators (+4.5 % blue, −4.1 %
+//! green) and its 10 mm lit side (+2.0 % blue); the fit warns of the shadow sides (the flagged
+//! frame carried more than three times the lamp's light there), and this test fails a shadow
+//! side that misses both the bound and the band unwarned. What this
 //! test holds every capture to is what the fit reaches today, so that it cannot get worse
 //! unnoticed: see [`held_to`].
 
@@ -146,20 +149,22 @@ fn check(case: &str) -> Vec<String> {
 /// The bound a region is held to today (largest channel), and whether being inside the fit's
 /// band also passes; `None` where nothing is held.
 /// - lit side: issue 38's 2 % on the single-sphere sets, 3 % in the several-sphere photograph;
-/// - terminator: issue 38's 4 % on the single-sphere sets, 8 % in the several-sphere photograph
+/// - terminator: issue 38's 4 % on the single-sphere sets, 5 % in the several-sphere photograph
 ///   (its lamp 53–62° from the camera: what the view's azimuth model leaves; see the module
 ///   docs);
-/// - shadow side: issue 38's 15 % for the RAW-like and the ideal-sensor sets up to r = 30 mm;
-///   15 % or the band for JPEG up to 30 mm (its 8-bit codes and compression, which the band
-///   counts); the 50 mm spheres (room light the flag leaves) and the several-sphere photograph
-///   (rendered at few samples) are printed only, and must be warned about where they miss.
+/// - shadow side: issue 38's 15 % for the RAW-like and the ideal-sensor sets up to r = 30 mm
+///   and the several-sphere photograph's 10 mm sphere; 15 % or the band for JPEG up to 30 mm
+///   (its 8-bit codes and compression, which the band counts); the 50 mm spheres (room light
+///   the flag leaves) and the several-sphere photograph's others (rendered at few samples) are
+///   printed only, and must be warned about where they miss.
 fn held_to(case: &str, radius_mm: f32, region: &str) -> Option<(f32, bool)> {
     match region {
         "lit" if case == "multi" => Some((0.03, false)),
         "lit" => Some((0.02, false)),
-        "terminator" if case == "multi" => Some((0.08, false)),
+        "terminator" if case == "multi" => Some((0.05, false)),
         "terminator" => Some((0.04, false)),
         "shadow" if matches!(case, "raw14" | "lamp") && radius_mm <= 30.0 => Some((0.15, false)),
+        "shadow" if case == "multi" && radius_mm == 10.0 => Some((0.15, false)),
         "shadow" if case == "jpeg" && radius_mm <= 30.0 => Some((0.15, true)),
         _ => None,
     }
