@@ -24,7 +24,8 @@
 //! The poster divides the φ dependence (φ = angle between normal and view) out of the
 //! measurement and re-applies it when rendering: `f(κ, θ) · g(φ)`, with g(0) = 1. The table keeps
 //! g as a small grid over φ ∈ [0, π/2] × θ ∈ [0, π] ([`ViewCorrection`]); with one θ column it is
-//! the poster's g(φ), with more it is a correction that also depends on θ.
+//! the poster's g(φ), with more it is a correction that also depends on θ, and cdrf-fit then
+//! scales f so that it is the ideal photograph's mean over each θ ring instead of g(0) = 1.
 //!
 //! # Coverage
 //! A table fitted from photographs can carry, per texel, how many samples it came from and how

@@ -9,13 +9,18 @@
 //!   [0, 90°], normalised to `g(0) = 1` — the poster's form, which keeps the table
 //!   interpolable across radii;
 //! - optionally `c_k(θ, φ)`: a smooth multiplicative correction on a coarse bilinear grid (10°),
-//!   **one per sphere**, pulled toward 1 where the data says nothing ([`ViewModel::ThetaPhi`]);
+//!   **one per sphere**, smooth where the data says nothing ([`ViewModel::ThetaPhi`]);
 //!   the table interpolates it across curvature like f (LUT format 5's curvature layers). It is
 //!   needed because the exitant radiance of a diffusing medium is `Φ/4π + 3/(4π)·F·ω`: the net
 //!   flux F points into the surface on the lit side and along it near the terminator, so grazing
 //!   views are relatively brighter on the lit side and darker on the shadow side — no single
 //!   g(φ) can do both, and small spheres need another c than large ones. What one shared g and
 //!   one shared c cost on the bundled spheres: `docs/research/fit-notes.md`.
+//!
+//! Only the product is measured. With c fitted, the split is fixed at the end (`fix_ring_gauge`):
+//! f(θ) is what an ideal photograph (orthographic, light at 90° to the view) shows averaged
+//! over its ring at θ, so every capture geometry gives the same f to the profile and
+//! transmission fits. Without c, g(0) = 1 fixes it, as in the poster.
 //!
 //! # Fit
 //! Alternating weighted least squares, **per pixel**: each sample enters with its exact θ and φ
@@ -393,6 +398,8 @@ pub fn fit_curves(spheres: &[SphereSamples], settings: CurveSettings) -> CurveFi
             reweight_points(&fit, &mut points, &mut noise, false);
         }
     }
+    fix_ring_gauge(&mut fit);
+    fit_f(&mut fit, &points);
     CurveFits {
         chosen: finish(fit, &points, &noise),
         poster,
@@ -702,6 +709,45 @@ fn fit_correction(fit: &mut CurveFit, points: &[Vec<Point>]) {
         })
         .collect();
     fit.correction = Some(corrections);
+}
+
+/// Only the product f·g·c is measured, and f can trade any function of θ with c. This scales
+/// each row of c so that g·c averages 1 over the ring an ideal photograph (orthographic, light
+/// at 90° to the view) shows at that θ: f(θ) is then that photograph's ring mean — the poster's
+/// raw curve — whatever geometry the photographs had, so the fits that read f (profile,
+/// transmission) get the same curve from any capture. The 0° and 180° rows take the rings at
+/// 10° and 170°. A channel whose mean is not positive is left as it is. The caller refits f.
+fn fix_ring_gauge(fit: &mut CurveFit) {
+    use std::f32::consts::{FRAC_PI_2, PI};
+    const STEPS: usize = 90;
+    let g_phi = fit.g_phi.clone();
+    let Some(corrections) = fit.correction.as_mut() else {
+        return;
+    };
+    let edge = PI / (CORRECTION_THETA_COUNT - 1) as f32;
+    for grid in corrections {
+        for (row, c_row) in grid.chunks_exact_mut(CORRECTION_PHI_COUNT).enumerate() {
+            let theta = (row as f32 * edge).clamp(edge, PI - edge);
+            let mean = (0..STEPS)
+                .map(|step| {
+                    // Pixels are uniform across the ring's chord: y, then φ = acos √(sin²θ − y²).
+                    let y = ((step as f32 + 0.5) / STEPS as f32 * 2.0 - 1.0) * theta.sin();
+                    let phi = (theta.sin().powi(2) - y * y)
+                        .max(0.0)
+                        .sqrt()
+                        .min(1.0)
+                        .acos();
+                    let g = hat(&g_phi, hat_coordinate(phi, FRAC_PI_2, g_phi.len()));
+                    g * hat(c_row, hat_coordinate(phi, FRAC_PI_2, CORRECTION_PHI_COUNT))
+                })
+                .sum::<Vec3>()
+                / STEPS as f32;
+            let scale = Vec3::select(mean.cmpgt(Vec3::splat(1e-3)), mean.recip(), Vec3::ONE);
+            for value in c_row {
+                *value *= scale;
+            }
+        }
+    }
 }
 
 /// Gaussian elimination with partial pivoting, per channel (the unknowns kept in f32).
