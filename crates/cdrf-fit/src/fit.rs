@@ -602,11 +602,20 @@ pub fn room_dominated_ranges(fit: &CurveFit, k: usize, theta_deg: &[f32]) -> Vec
 pub fn noisy_ranges(band: &[Option<NodeBand>], theta_deg: &[f32], limit: f32) -> Vec<[f32; 2]> {
     let half = one_degree_nodes(theta_deg);
     merged_ranges(theta_deg, |i| {
-        let window = &band[i.saturating_sub(half)..(i + half + 1).min(band.len())];
-        band[i].is_some()
-            && NodeBand::pool(window.iter().flatten().copied())
-                .is_some_and(|b| b.half_width() > limit)
+        band[i].is_some() && pooled_band(band, i, half).is_some_and(|b| b.half_width() > limit)
     })
+}
+
+/// The band at node `i` pooled with the nodes within `half` of it; `None` where none of them
+/// was measured.
+pub(crate) fn pooled_band(band: &[Option<NodeBand>], i: usize, half: usize) -> Option<NodeBand> {
+    let window = &band[i.saturating_sub(half)..(i + half + 1).min(band.len())];
+    NodeBand::pool(window.iter().flatten().copied())
+}
+
+/// The angles, degrees, of `n` uniform θ nodes over [0°, 180°].
+pub(crate) fn theta_nodes_deg(n: usize) -> Vec<f32> {
+    (0..n).map(|i| theta_rad_at(i, n).to_degrees()).collect()
 }
 
 /// How many nodes of `theta_deg` make 1°.

@@ -24,7 +24,7 @@ use crate::curves::{CORRECTION_PHI_COUNT, SphereSamples, ViewModel};
 use crate::evaluate::SphereError;
 use crate::fit::{
     Fit, ModelErrors, NOISY_BAND, NodeBand, SphereReport, Timings, confidence_95, noisy_ranges,
-    room_dominated_ranges,
+    room_dominated_ranges, theta_nodes_deg,
 };
 use crate::photographs::LightReport;
 use crate::plot::{
@@ -389,9 +389,7 @@ impl Report {
     /// The report of a fit of the data set in `dataset`.
     pub fn new(fit: &Fit, dataset: &Path) -> Self {
         let settings = fit.curves.chosen.settings;
-        let theta_deg: Vec<f32> = (0..settings.theta_count)
-            .map(|a| theta_rad_at(a, settings.theta_count).to_degrees())
-            .collect();
+        let theta_deg = theta_nodes_deg(settings.theta_count);
         let bands: Vec<_> = (0..fit.spheres.len())
             .map(|k| confidence_95(&fit.curves.chosen, k))
             .collect();

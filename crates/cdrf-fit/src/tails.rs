@@ -20,7 +20,7 @@ use glam::Vec3;
 use cdrf_core::lut::theta_rad_at;
 
 use crate::curves::CurveFit;
-use crate::fit::{NodeBand, confidence_95, one_degree_nodes};
+use crate::fit::{confidence_95, one_degree_nodes, pooled_band, theta_nodes_deg};
 
 /// The 95 % band (relative half-width) past which the table continues with the profile.
 pub const CONTINUE_BAND: f32 = 0.4;
@@ -36,20 +36,14 @@ pub fn cuts(fit: &CurveFit) -> Vec<Option<usize>> {
         .map(|k| {
             let band = confidence_95(fit, k);
             let n = band.len();
-            let half = one_degree_nodes(&theta_deg(n));
+            let half = one_degree_nodes(&theta_nodes_deg(n));
             (n / 2..n).find(|&i| {
-                let window = &band[i.saturating_sub(half)..(i + half + 1).min(n)];
                 // NaN (a node whose model is 0) counts as too wide.
-                NodeBand::pool(window.iter().flatten().copied())
+                pooled_band(&band, i, half)
                     .is_none_or(|b| b.half_width().is_nan() || b.half_width() > CONTINUE_BAND)
             })
         })
         .collect()
-}
-
-/// The angles, degrees, of `n` uniform θ nodes over [0°, 180°].
-fn theta_deg(n: usize) -> Vec<f32> {
-    (0..n).map(|i| theta_rad_at(i, n).to_degrees()).collect()
 }
 
 /// Replaces each curve (f on θ nodes over [0, π], sphere `k` at `curvature_per_mm[k]`) from its
