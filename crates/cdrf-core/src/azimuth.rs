@@ -24,9 +24,12 @@ pub const SURFACE_LENGTH_MM: f32 = 0.25;
 /// On the shadow side light that crossed the body flows too: for a view along the flow ℓ grows
 /// to ℓ·(1 + SHADOW_FLUX_GAIN·|cos θ|) (set on the r = 20 mm wax sphere lit from behind).
 pub const SHADOW_FLUX_GAIN: f32 = 2.4;
-/// sin θ is held at this much within 20° of θ = 0 and π, where the azimuth is ill-defined and a
-/// table's ends are filled rather than measured.
-pub const MIN_SINE: f32 = 0.35;
+/// The floor of sin θ in x on the lit side (cos θ > 0): within 20° of θ = 0 the azimuth is
+/// ill-defined, and the photographs saw those points only at grazing angles.
+pub const LIT_MIN_SINE: f32 = 0.35;
+/// The floor of sin θ in x on the shadow side: only a guard of the division, since near the
+/// anti-light pole the flow falls as sin θ ([`POLE_FROM_RAD`]), so x keeps its value there.
+pub const SHADOW_MIN_SINE: f32 = 1e-3;
 /// A view against the flow (x < 0) loses less than a view along it gains: h = 1/(1 − 0.8·x)
 /// there. Set on the path-traced captures with the lamp 53–83° from the camera
 /// (docs/research/captures.md); 1/(1 − x) left their terminators 2–6 % too bright once divided.
@@ -35,6 +38,17 @@ pub const AGAINST_FLOW_SCALE: f32 = 0.8;
 pub const EXPONENT_LIMIT: f32 = 2.0;
 /// Half the θ span of [`falloff_per_rad`]'s differences, radians (5°).
 pub const SLOPE_HALF_WIDTH_RAD: f32 = 5.0 * PI / 180.0;
+/// From this θ (radians, 130°) ln f is averaged before its slope is taken, over a window
+/// growing to ±2 × [`SLOPE_HALF_WIDTH_RAD`] at [`POLE_FROM_RAD`]: a photograph's deep shadow
+/// side is a few pixels a node, and its wiggles, times the shadow side's growth and e^x, drew
+/// rings on a body lit from behind.
+pub const SHADOW_SMOOTHING_FROM_RAD: f32 = 130.0 * PI / 180.0;
+/// Within 20° of the anti-light pole (from 160°) the flow is the even continuation of its value
+/// here, ln f ≈ a − b·(π − θ)²/2 (a sphere's f is symmetric about the pole), so it falls as
+/// sin θ and x keeps its value: the photographs barely measure this cap and the table holds
+/// the diffusion profile's continuation there (cdrf-fit's tails), whose join with the last
+/// measured nodes is no slope to read.
+pub const POLE_FROM_RAD: f32 = 160.0 * PI / 180.0;
 
 /// ℓ per channel, mm, for a material whose diffusion profile's mean distance is
 /// `mean_distance_mm` (`DiffusionProfile::mean_distance_mm`): [`FLUX_LENGTH_MM`], less by what
@@ -49,13 +63,16 @@ pub fn flux_length_mm(mean_distance_mm: Option<[f32; 3]>) -> Vec3 {
 
 /// −∂ ln f / ∂θ, per radian, of one curve f on `values.len()` uniform θ nodes over [0, π] (at
 /// least two), at least 0: central differences over ±5° (one-sided at the ends), f floored at
-/// 10⁻⁴ of its largest value (a fitted curve's small wiggles and zeros would otherwise show).
+/// 10⁻⁴ of its largest value (a fitted curve's small wiggles and zeros would otherwise show);
+/// from [`SHADOW_SMOOTHING_FROM_RAD`] on ln f is averaged over a widening window first, and from
+/// [`POLE_FROM_RAD`] on the rate there falls as sin θ, to 0 at π.
 pub fn falloff_per_rad(values: &[Vec3]) -> Vec<Vec3> {
     let columns = values.len();
     if columns < 2 {
         return vec![Vec3::ZERO; columns];
     }
-    let step = PI / (columns - 1) as f32;
+    let last = columns - 1;
+    let step = PI / last as f32;
     let reach = ((SLOPE_HALF_WIDTH_RAD / step).round() as usize).max(1);
     let floor = values.iter().fold(Vec3::ZERO, |m, v| m.max(*v)) * 1e-4;
     let ln = |j: usize| {
@@ -64,11 +81,31 @@ pub fn falloff_per_rad(values: &[Vec3]) -> Vec<Vec3> {
             .max(Vec3::splat(f32::MIN_POSITIVE))
             .ln()
     };
+    let smoothing = (POLE_FROM_RAD - SHADOW_SMOOTHING_FROM_RAD).max(f32::EPSILON);
+    let smoothed: Vec<Vec3> = (0..columns)
+        .map(|j| {
+            let theta = j as f32 * step;
+            let share = ((theta - SHADOW_SMOOTHING_FROM_RAD) / smoothing).clamp(0.0, 1.0);
+            let half = (share * (2 * reach) as f32).round() as usize;
+            let window = j.saturating_sub(half)..=(j + half).min(last);
+            let count = window.clone().count() as f32;
+            window.map(ln).sum::<Vec3>() / count
+        })
+        .collect();
+    let rate = |j: usize| {
+        let (a, b) = (j.saturating_sub(reach), (j + reach).min(last));
+        let slope = (smoothed[b] - smoothed[a]) / ((b - a) as f32 * step);
+        (-slope).max(Vec3::ZERO)
+    };
+    let pole = ((POLE_FROM_RAD / step).round() as usize).min(last);
+    let at_pole = rate(pole) / (pole as f32 * step).sin().max(f32::EPSILON);
     (0..columns)
         .map(|j| {
-            let (a, b) = (j.saturating_sub(reach), (j + reach).min(columns - 1));
-            let slope = (ln(b) - ln(a)) / ((b - a) as f32 * step);
-            (-slope).max(Vec3::ZERO)
+            if j > pole {
+                at_pole * (j as f32 * step).sin().max(0.0)
+            } else {
+                rate(j)
+            }
         })
         .collect()
 }
@@ -92,7 +129,12 @@ pub fn factor(
     theta_rad: f32,
     view_dot_light: f32,
 ) -> Vec3 {
-    let across = -view_dot_light / theta_rad.sin().max(MIN_SINE);
+    let sine_floor = if theta_rad.cos() > 0.0 {
+        LIT_MIN_SINE
+    } else {
+        SHADOW_MIN_SINE
+    };
+    let across = -view_dot_light / theta_rad.sin().max(sine_floor);
     let along_flow = if across >= 0.0 { 1.0 } else { 0.0 };
     let shadow = (-theta_rad.cos()).max(0.0) * along_flow;
     let growth = 1.0 + SHADOW_FLUX_GAIN * shadow;

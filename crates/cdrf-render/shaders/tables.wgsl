@@ -110,7 +110,8 @@ fn view_azimuth(curvature_per_mm: f32, theta: f32, view_dot_light: f32) -> vec3<
     if MODEL != MODEL_MEASURED && MODEL != MODEL_GAUSSIAN_LUT {
         return vec3<f32>(1.0);
     }
-    let across = -view_dot_light / max(sin(theta), AZIMUTH_MIN_SINE);
+    let sine_floor = select(AZIMUTH_SHADOW_MIN_SINE, AZIMUTH_LIT_MIN_SINE, cos(theta) > 0.0);
+    let across = -view_dot_light / max(sin(theta), sine_floor);
     let shadow = max(-cos(theta), 0.0) * step(0.0, across);
     let growth = 1.0 + SHADOW_FLUX_GAIN * shadow;
     let x = min(growth * surface_flow_value(curvature_per_mm, theta) * across, vec3<f32>(AZIMUTH_LIMIT));

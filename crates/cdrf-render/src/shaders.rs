@@ -67,7 +67,11 @@ pub fn wgsl_constants() -> String {
     // The view's azimuth (cdrf-core's azimuth module; tables.wgsl's view_azimuth).
     for (name, value) in [
         ("SHADOW_FLUX_GAIN", cdrf_core::azimuth::SHADOW_FLUX_GAIN),
-        ("AZIMUTH_MIN_SINE", cdrf_core::azimuth::MIN_SINE),
+        ("AZIMUTH_LIT_MIN_SINE", cdrf_core::azimuth::LIT_MIN_SINE),
+        (
+            "AZIMUTH_SHADOW_MIN_SINE",
+            cdrf_core::azimuth::SHADOW_MIN_SINE,
+        ),
         ("AZIMUTH_LIMIT", cdrf_core::azimuth::EXPONENT_LIMIT),
         ("AGAINST_FLOW_SCALE", cdrf_core::azimuth::AGAINST_FLOW_SCALE),
     ] {

@@ -65,7 +65,8 @@ struct CompareArgs {
     /// Cases: `[[case]] name, scene, reference` (default: data/compare.toml).
     #[arg(long, value_name = "TOML")]
     cases: Option<PathBuf>,
-    /// cdrf-fit output folder with measured.exr and gaussian.toml (default: data/wax-fit).
+    /// cdrf-fit output folder with measured.exr and gaussian.toml (default: data/wax-fit); a
+    /// case whose entry names its own `fit` (another medium) keeps that one.
     #[arg(long, value_name = "DIR")]
     fit: Option<PathBuf>,
     /// Output folder for compare.json, compare.md and one figure per case.
@@ -354,6 +355,15 @@ fn compare(args: &CompareArgs) -> anyhow::Result<()> {
     for case in &cases {
         case_models.push(match &case.fit {
             Some(fit) => {
+                if let Some(asked) = &args.fit {
+                    eprintln!(
+                        "note: case {} keeps its own fit {} (named in {}), not --fit {}",
+                        case.name,
+                        fit.display(),
+                        cases_path.display(),
+                        asked.display()
+                    );
+                }
                 inputs.extend([fit.join(FIT_LUT_FILE), fit.join(FIT_GAUSSIAN_FILE)]);
                 Some(Models::from_files(
                     &fit.join(FIT_LUT_FILE),

@@ -567,6 +567,47 @@ fn sphere_manifest(dir: &Path, name: &str, reference: &Path) -> PathBuf {
     path
 }
 
+/// `compare --fit DIR` silently rendered a case that names its own `fit` (another medium)
+/// with that fit: the run now says so, per case.
+#[test]
+fn compare_says_when_a_case_keeps_its_own_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = data_dir().canonicalize().unwrap();
+    let manifest = sphere_manifest(
+        dir.path(),
+        "sphere",
+        &data.join("wax-spheres/sphere_r35.exr"),
+    );
+    let own = data.join("skin1-fit");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    std::fs::write(
+        &manifest,
+        format!("{text}fit = {:?}\n", own.display().to_string()),
+    )
+    .unwrap();
+    // Stop before rendering: the output folder is a file.
+    std::fs::write(dir.path().join("out"), b"").unwrap();
+    let wax = data.join("wax-fit");
+    let output = viewer(
+        dir.path(),
+        &[
+            "compare",
+            "--cases",
+            "cases.toml",
+            "--fit",
+            wax.to_str().unwrap(),
+            "--out",
+            "out",
+            "--software",
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("note: case sphere keeps its own fit") && stderr.contains("skin1-fit"),
+        "{stderr}"
+    );
+}
+
 /// Case names became figure paths: `../x` or `/abs` wrote outside `--out`.
 #[test]
 fn compare_rejects_case_names_that_are_not_plain_file_names() {
