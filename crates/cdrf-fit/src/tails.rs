@@ -6,10 +6,10 @@
 //! then shows on every shadow side of that curvature.
 //!
 //! So from the first shadow-side node (θ ≥ 90°) whose 95 % band, pooled over ±1°, is wider
-//! than [`CONTINUE_BAND`] — or that has no measured node within 1° — the table holds the
-//! diffusion profile's sphere `F_k(θ)` instead, scaled per channel to the smoothed curve's
-//! ratio to it over the [`MATCH_DEG`] of shadow side before that node: the fall-off diffusion
-//! predicts, at the level the photograph measured. The profile itself is fitted to the whole
+//! than [`CONTINUE_BAND`] — or that has no measured node within 1°, or lies past the last
+//! measured node — the table holds the diffusion profile's sphere `F_k(θ)` instead, scaled per
+//! channel to the smoothed curve's ratio to it over the [`MATCH_DEG`] of shadow side before
+//! that node: the fall-off diffusion predicts, at the level the photograph measured. The profile itself is fitted to the whole
 //! curve. What the continuation cannot know is how f/F drifts past the cut (on the ideal
 //! photographs by up to ±40 % between 100° and 130° on the largest spheres), which is why the
 //! band must be that wide before it takes over. Measured and tuned: docs/research/captures.md.
@@ -37,10 +37,16 @@ pub fn cuts(fit: &CurveFit) -> Vec<Option<usize>> {
             let band = confidence_95(fit, k);
             let n = band.len();
             let half = one_degree_nodes(&theta_nodes_deg(n));
+            // Past the last measured node the curve is the fit's fill, never a measurement.
+            let unmeasured_from = fit.node_samples[k]
+                .iter()
+                .rposition(|&samples| samples > 0.0)
+                .map_or(0, |last| last + 1);
             (n / 2..n).find(|&i| {
                 // NaN (a node whose model is 0) counts as too wide.
-                pooled_band(&band, i, half)
-                    .is_none_or(|b| b.half_width().is_nan() || b.half_width() > CONTINUE_BAND)
+                i >= unmeasured_from
+                    || pooled_band(&band, i, half)
+                        .is_none_or(|b| b.half_width().is_nan() || b.half_width() > CONTINUE_BAND)
             })
         })
         .collect()
@@ -164,11 +170,15 @@ mod tests {
         assert_eq!(cuts(&fit), vec![Some(242)]);
     }
 
+    /// From the first node past the last measured one: the fit's fill there (flat, or 0 where
+    /// the last measured node came out 0 — the bundled table's 5 mm sphere at 172.5°) is no
+    /// measurement, though a measured node lies within 1°. A gap inside the curve is kept.
     #[test]
     fn a_tail_without_samples_is_cut() {
         let mut fit = fit_with_noise(|_| 0.1);
         fit.node_samples[0][300..].fill(0.0);
-        assert_eq!(cuts(&fit), vec![Some(302)]);
+        fit.node_samples[0][250] = 0.0;
+        assert_eq!(cuts(&fit), vec![Some(300)]);
     }
 
     #[test]
