@@ -44,7 +44,7 @@ pub const SLOPE_HALF_WIDTH_RAD: f32 = 5.0 * PI / 180.0;
 /// rings on a body lit from behind.
 pub const SHADOW_SMOOTHING_FROM_RAD: f32 = 130.0 * PI / 180.0;
 /// Within 20° of the anti-light pole (from 160°) the flow is the even continuation of its value
-/// here, ln f ≈ a − b·(π − θ)²/2 (a sphere's f is symmetric about the pole), so it falls as
+/// here, ln f ≈ a + b·(π − θ)²/2 (a sphere's f is symmetric about the pole), so it falls as
 /// sin θ and x keeps its value: the photographs barely measure this cap and the table holds
 /// the diffusion profile's continuation there (cdrf-fit's tails), whose join with the last
 /// measured nodes is no slope to read.
@@ -86,10 +86,11 @@ pub fn falloff_per_rad(values: &[Vec3]) -> Vec<Vec3> {
         .map(|j| {
             let theta = j as f32 * step;
             let share = ((theta - SHADOW_SMOOTHING_FROM_RAD) / smoothing).clamp(0.0, 1.0);
-            let half = (share * (2 * reach) as f32).round() as usize;
-            let window = j.saturating_sub(half)..=(j + half).min(last);
-            let count = window.clone().count() as f32;
-            window.map(ln).sum::<Vec3>() / count
+            // Narrowed evenly at the ends, so that the window stays centred on the node.
+            let half = ((share * (2 * reach) as f32).round() as usize)
+                .min(j)
+                .min(last - j);
+            (j - half..=j + half).map(ln).sum::<Vec3>() / (2 * half + 1) as f32
         })
         .collect();
     let rate = |j: usize| {
@@ -97,7 +98,8 @@ pub fn falloff_per_rad(values: &[Vec3]) -> Vec<Vec3> {
         let slope = (smoothed[b] - smoothed[a]) / ((b - a) as f32 * step);
         (-slope).max(Vec3::ZERO)
     };
-    let pole = ((POLE_FROM_RAD / step).round() as usize).min(last);
+    // At least one node past it, so that the rate at π is 0 on any grid.
+    let pole = ((POLE_FROM_RAD / step).round() as usize).min(last - 1);
     let at_pole = rate(pole) / (pole as f32 * step).sin().max(f32::EPSILON);
     (0..columns)
         .map(|j| {

@@ -10,32 +10,43 @@ use cdrf_core::{CdrfLut, CurvatureAxis};
 const COLUMNS: usize = 181;
 
 fn table(f: impl Fn(f32) -> Vec3) -> CdrfLut {
+    table_of(COLUMNS, f)
+}
+
+fn table_of(columns: usize, f: impl Fn(f32) -> Vec3) -> CdrfLut {
     let axis = CurvatureAxis::from_radii_mm(50.0, 5.0, 4);
-    let radiance = (0..axis.count * COLUMNS)
-        .map(|i| f(PI * (i % COLUMNS) as f32 / (COLUMNS - 1) as f32))
+    let radiance = (0..axis.count * columns)
+        .map(|i| f(PI * (i % columns) as f32 / (columns - 1) as f32))
         .collect();
-    CdrfLut::new(axis, COLUMNS, radiance).unwrap()
+    CdrfLut::new(axis, columns, radiance).unwrap()
 }
 
 /// f = exp(−θ/w) per channel: ln f is linear, so the rate is ℓ/w at every θ up to the
-/// anti-light pole's cap (from 160°), where it falls as sin θ from that value, to 0 at π.
+/// anti-light pole's cap (from 160°), where it falls as sin θ from that value, to 0 at π (the
+/// widths keep f above the floor of 10⁻⁴ of its largest value up to θ = π).
 #[test]
 fn an_exponential_falls_at_one_over_its_width() {
     let widths = Vec3::new(0.9, 0.6, 0.4);
-    let lut = table(|theta| (-Vec3::splat(theta) / widths).exp());
-    let falloff = lut.flow_mm_per_rad();
-    assert_eq!(falloff.len(), lut.curvature_axis().count * COLUMNS);
     let expected = FLUX_LENGTH_MM / widths;
-    let degrees = |i: usize| 180.0 * (i % COLUMNS) as f32 / (COLUMNS - 1) as f32;
-    for (i, rate) in falloff.iter().enumerate() {
-        let theta = degrees(i);
-        let cap = if theta > 160.0 {
-            theta.to_radians().sin() / 160f32.to_radians().sin()
-        } else {
-            1.0
-        };
-        let error = (*rate - expected * cap).abs().max_element() / expected.max_element();
-        assert!(error < 1e-3, "texel {i}: {rate} against {}", expected * cap);
+    // The table's grid and the coarsest the fit writes (10° a column).
+    for columns in [COLUMNS, 19] {
+        let lut = table_of(columns, |theta| (-Vec3::splat(theta) / widths).exp());
+        let falloff = lut.flow_mm_per_rad();
+        assert_eq!(falloff.len(), lut.curvature_axis().count * columns);
+        for (i, rate) in falloff.iter().enumerate() {
+            let theta = 180.0 * (i % columns) as f32 / (columns - 1) as f32;
+            let cap = if theta > 160.0 {
+                theta.to_radians().sin() / 160f32.to_radians().sin()
+            } else {
+                1.0
+            };
+            let error = ((*rate - expected * cap) / expected).abs().max_element();
+            assert!(
+                error < 1e-3,
+                "{columns} columns, texel {i}: {rate} against {}",
+                expected * cap
+            );
+        }
     }
 }
 

@@ -9,10 +9,11 @@
 //! than [`CONTINUE_BAND`] — or that has no measured node within 1°, or lies past the last
 //! measured node — the table holds the diffusion profile's sphere `F_k(θ)` instead, scaled per
 //! channel to the smoothed curve's ratio to it over the [`MATCH_DEG`] of shadow side before
-//! that node: the fall-off diffusion predicts, at the level the photograph measured. The profile itself is fitted to the whole
-//! curve. What the continuation cannot know is how f/F drifts past the cut (on the ideal
-//! photographs by up to ±40 % between 100° and 130° on the largest spheres), which is why the
-//! band must be that wide before it takes over. Measured and tuned: docs/research/captures.md.
+//! that node: the fall-off diffusion predicts, at the level the photograph measured. The
+//! profile itself is fitted to the whole curve. What the continuation cannot know is how f/F
+//! drifts past the cut (on the ideal photographs by up to ±40 % between 100° and 130° on the
+//! largest spheres), which is why the band must be that wide before it takes over. Measured
+//! and tuned: docs/research/captures.md.
 
 use cdrf_core::diffusion::DiffusionProfile;
 use glam::Vec3;

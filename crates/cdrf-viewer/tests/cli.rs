@@ -601,6 +601,7 @@ fn compare_says_when_a_case_keeps_its_own_fit() {
             "--software",
         ],
     );
+    assert_fails(&output, 1, &["out"]);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(
         stderr.contains("note: case sphere keeps its own fit") && stderr.contains("skin1-fit"),
