@@ -161,31 +161,34 @@ fn through_medium(ray: vec3<f32>, shape: LocalShape, q: vec3<f32>, tolerance_mm:
     return 1.0 - smoothstep(tolerance_mm, 2.0 * tolerance_mm, ahead);
 }
 
-// The gain on G deep on the shadow side of a body thinner along the light than its osculating
-// circle there (curvature along the light) predicts — wider than it is thick, as a thick body
-// lit from behind or a tube's far side: the spheres the profile was fitted to lose light
-// through their curved sides that such a body keeps (confinement). 1 on a sphere, whose chord
-// is the circle's. The gain grows with how much thinner it is (per channel, on the scale of the
+// The gain on G on the shadow side of a body thinner along the light than the circle of the
+// point's local shape predicts (the curvature the shadow test and the gather read, so one
+// circle stands for the body in all three) — wider than it is thick, as a thick body lit from
+// behind or a tube's far side: the spheres the profile was fitted to lose light through their
+// curved sides that such a body keeps (confinement). 1 on a sphere, whose chord is the
+// circle's. The gain grows with how much thinner it is (per channel, on the scale of the
 // transmission length ℓ_T) and with the thickness itself (light that crossed a body a few ℓ_T
-// thick; a 7 mm strand barely), to at most 1 + CONFINEMENT_GAIN, faded in from θ = 100° to 120°
-// (nearer the terminator the light runs along the surface). A point flat or concave along the
-// light counts as thinner than any circle. Fitted to the blob and capsule lit from behind and
-// the torus (docs/research/thick-bodies.md).
+// thick; a 7 mm strand barely), to at most 1 + CONFINEMENT_GAIN, faded in from the terminator
+// to θ ≈ 115° (just past it the light ran along the surface). A point of negative mean
+// curvature counts as thinner than any circle. Fitted to the blob and capsule lit from behind
+// and the torus (docs/research/thick-bodies.md).
 const CONFINEMENT_GAIN: f32 = 1.0;
 const CONFINEMENT_THICKNESS_LENGTHS: f32 = 2.0;
 const CONFINEMENT_TOLERANCE_MM: f32 = 1.0;
+// n · the light's ray (−cos θ) where the gain is whole: θ ≈ 115°.
+const CONFINEMENT_FULL_FROM: f32 = 0.42;
 // `thickness_mm`: the body along the light at the point (NonLocalTerms); `along`: n · the
-// light's ray (> 0 on the shadow side).
-fn confinement_gain(thickness_mm: f32, along: f32, light_curvature_per_mm: f32) -> vec3<f32> {
+// light's ray (> 0 on the shadow side); `shape_curvature_per_mm`: shadow_shape_curvature_per_mm.
+fn confinement_gain(thickness_mm: f32, along: f32, shape_curvature_per_mm: f32) -> vec3<f32> {
     if thickness_mm <= 0.0 || along <= 0.0 {
         return vec3<f32>(1.0);
     }
-    // Flat or concave along the light, the circle's chord is unbounded (the limit of a
-    // vanishing curvature, so the gain is continuous where the curvature changes sign).
-    let chord_mm = 2.0 * along / max(light_curvature_per_mm, 1e-6);
+    // Concave, the circle's chord is unbounded (the limit of a vanishing curvature, so the
+    // gain is continuous where the mean curvature changes sign).
+    let chord_mm = 2.0 * along / max(shape_curvature_per_mm, 1e-6);
     let thinner_mm = clamp(chord_mm - thickness_mm - CONFINEMENT_TOLERANCE_MM, 0.0, thickness_mm);
     let length_mm = material.transmission_length_mm;
     let thick = 1.0 - exp(-thickness_mm / (CONFINEMENT_THICKNESS_LENGTHS * length_mm));
-    let deep = smoothstep(0.17, 0.5, along);
+    let deep = smoothstep(0.0, CONFINEMENT_FULL_FROM, along);
     return 1.0 + CONFINEMENT_GAIN * deep * thick * (1.0 - exp(-thinner_mm / length_mm));
 }

@@ -133,7 +133,7 @@ fn vertex_non_local(
         terms.gather *= confinement_gain(
             terms.thickness_mm,
             dot(shape.normal, light_ray(index, shape.point)),
-            light_curvature_per_mm,
+            shape_curvature_per_mm,
         );
     }
     return terms;
