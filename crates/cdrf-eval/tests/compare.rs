@@ -6,7 +6,10 @@
 //! and light from behind, where the view's azimuth and the confinement gain must keep the
 //! shadow side.
 
-use cdrf_eval::{CaseResult, CaseSpec, ComparedModel, Models, Region, read_manifest, run_case};
+use cdrf_eval::{
+    CaseResult, CaseSpec, ComparedModel, Models, Region, THETA_BIN_EDGES_DEG, read_manifest,
+    run_case,
+};
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
 use cdrf_tests::data_dir;
 
@@ -34,11 +37,17 @@ fn case(name: &str) -> CaseSpec {
 }
 
 /// Case `name` of data/compare.toml at 128 × 128 pixels with the bundled fit, on the software
-/// adapter; its markdown tables are printed.
+/// adapter; its markdown tables are printed. A case of another medium (its own `fit`) is
+/// refused: it would be rendered with the wax's table.
 fn run_small_case(name: &str) -> CaseResult {
     let device = HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|e| panic!("{e}"));
-    let result = run_case(&device, &case(name), &models(), Some(128), None)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let spec = case(name);
+    assert!(
+        spec.fit.is_none(),
+        "{name} brings its own fit; run_small_case renders the wax's"
+    );
+    let result =
+        run_case(&device, &spec, &models(), Some(128), None).unwrap_or_else(|e| panic!("{e}"));
     println!("{}", cdrf_eval::markdown(std::slice::from_ref(&result)));
     result
 }
@@ -243,7 +252,7 @@ fn the_subsurface_gather_lights_the_knot_shadow_side() {
 }
 
 /// The non-local terms' targets at a size CI affords (128 px; at 512 px, `compare`: the knot
-/// 9.2 %, its second view 9.5 %): with every term the knot's and its second view's light is
+/// 9.2 %, its second view 9.8 %): with every term the knot's and its second view's light is
 /// 0.75–1.33 × the path-traced reference's in every θ bin and in the cast shadow, and the
 /// whole-object error is below 10 % and 15 % — except the second view's cast shadow, held to
 /// 1.45: since cdrf-fit's f is the ideal photograph's ring mean (close to the exitance, which
@@ -290,28 +299,38 @@ fn a_case_of_another_medium_brings_its_own_fit() {
 
 /// Light from behind (issue 37), at 128 px: a wax sphere (the table's own shape, seen from the
 /// far side of the azimuth its photographs fixed), the thick blob, the capsule and the torus
-/// (made after the confinement gain was last tuned, to hold it on a body it never saw). With
-/// every term, every θ bin within 0.75–1.33 × the path-traced reference and the whole object
-/// within 10 % (sphere) and 15 % (bodies). Without the view's azimuth the sphere's shadow side was
-/// 0.65–0.76 × its reference (17 %); without it and the confinement gain, the blob's deep
-/// shadow 0.48 × (35.7 %).
+/// (path-traced after the confinement gain's seventh pass, 2026-12-06, to hold it on a body it
+/// was not tuned on). With every term, every θ bin of at least `MIN_BIN_PIXELS` within
+/// 0.75–1.33 × the path-traced reference and the whole object within 10 % (sphere) and 15 %
+/// (bodies). Without the view's azimuth the sphere's shadow side was 0.65–0.76 × its reference
+/// (17 %); without it and the confinement gain, the blob's deep shadow 0.48 × (35.7 %). The
+/// torus is held closer: 100–130° at least 0.94 × and 10 % whole (before the seventh pass
+/// 0.91 / 0.89 × and 10.3 %; after it 0.97 / 0.98 × and 9.0 %).
 #[test]
 fn light_from_behind_keeps_the_shadow_side() {
-    for (name, whole) in [
-        ("sphere_r20_behind", 0.10),
-        ("blob_behind", 0.15),
-        ("capsule_behind", 0.15),
-        ("torus_behind", 0.15),
+    // A bin of fewer pixels is a few pixels' noise (the camera sees the shadow side).
+    const MIN_BIN_PIXELS: usize = 16;
+    // (case, whole-object bound, floor of the 100–110° and 110–130° bins)
+    for (name, whole, deep_floor) in [
+        ("sphere_r20_behind", 0.10, 0.75),
+        ("blob_behind", 0.15, 0.75),
+        ("capsule_behind", 0.15, 0.75),
+        ("torus_behind", 0.10, 0.94),
     ] {
         let result = run_small_case(name);
         let ratios = result.theta.ratios(compared("measured_all")).unwrap();
         println!("{name}: bins {:?}", ratios.bins);
         for (bin, ratio) in ratios.bins.iter().enumerate() {
-            // The lit side's bins are empty: the camera sees the shadow side.
-            if result.theta.pixels[bin] == 0 {
+            if result.theta.pixels[bin] < MIN_BIN_PIXELS {
                 continue;
             }
-            assert!((0.75..=1.33).contains(ratio), "{name}, bin {bin}: {ratio}");
+            let from_deg = THETA_BIN_EDGES_DEG[bin];
+            let floor = if (100.0..130.0).contains(&from_deg) {
+                deep_floor
+            } else {
+                0.75
+            };
+            assert!((floor..=1.33).contains(ratio), "{name}, bin {bin}: {ratio}");
         }
         let rmse = result
             .metrics(Region::Whole, compared("measured_all"))

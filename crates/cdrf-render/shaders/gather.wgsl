@@ -169,9 +169,11 @@ fn through_medium(ray: vec3<f32>, shape: LocalShape, q: vec3<f32>, tolerance_mm:
 // circle's. The gain grows with how much thinner it is (per channel, on the scale of the
 // transmission length ℓ_T) and with the thickness itself (light that crossed a body a few ℓ_T
 // thick; a 7 mm strand barely), to at most 1 + CONFINEMENT_GAIN, faded in from the terminator
-// to θ ≈ 115° (just past it the light ran along the surface). A point of negative mean
-// curvature counts as thinner than any circle. Fitted to the blob and capsule lit from behind
-// and the torus (docs/research/thick-bodies.md).
+// to θ ≈ 115° (near the terminator the light runs along the surface). Where the mean
+// curvature is ≤ 0 the chord is unbounded (thinner than any circle); a point flat or concave
+// along the light on a convex body reads a quarter of the mean. Fitted to the blob, the
+// capsule and Skin1's blob lit from behind, the side-lit capsule, the torus and knot view 2
+// (docs/research/thick-bodies.md).
 const CONFINEMENT_GAIN: f32 = 1.0;
 const CONFINEMENT_THICKNESS_LENGTHS: f32 = 2.0;
 const CONFINEMENT_TOLERANCE_MM: f32 = 1.0;
@@ -183,8 +185,8 @@ fn confinement_gain(thickness_mm: f32, along: f32, shape_curvature_per_mm: f32) 
     if thickness_mm <= 0.0 || along <= 0.0 {
         return vec3<f32>(1.0);
     }
-    // Concave, the circle's chord is unbounded (the limit of a vanishing curvature, so the
-    // gain is continuous where the mean curvature changes sign).
+    // Mean curvature ≤ 0 (concave or a saddle): the chord is unbounded (the limit of a
+    // vanishing curvature, so the gain is continuous where the mean curvature changes sign).
     let chord_mm = 2.0 * along / max(shape_curvature_per_mm, 1e-6);
     let thinner_mm = clamp(chord_mm - thickness_mm - CONFINEMENT_TOLERANCE_MM, 0.0, thickness_mm);
     let length_mm = material.transmission_length_mm;

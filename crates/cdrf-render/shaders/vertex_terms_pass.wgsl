@@ -80,8 +80,9 @@ fn cs_vertex_terms(
 }
 
 // The curvature of the local shape the shadow test and the gather compare the light map with
-// (light_space.wgsl's local_shape): where the mean curvature is positive, the smaller of it and
-// the curvature along the light, but at least a quarter of the mean. A body curving slowly
+// (light_space.wgsl's local_shape), and the confinement gain the body's thickness: where the
+// mean curvature is positive, the smaller of it and the curvature along the light, but at
+// least a quarter of the mean. A body curving slowly
 // along the light (an egg lit from one end) meets the light farther out than its
 // mean-curvature sphere, which would call its own surface an occluder past the terminator;
 // never more than the mean, so a tube lit across keeps its sphere; never a plane, whose
