@@ -82,12 +82,11 @@ fn cs_vertex_terms(
 // The curvature of the local shape the shadow test and the gather compare the light map with
 // (light_space.wgsl's local_shape), and the confinement gain the body's thickness: where the
 // mean curvature is positive, the smaller of it and the curvature along the light, but at
-// least a quarter of the mean. A body curving slowly
-// along the light (an egg lit from one end) meets the light farther out than its
-// mean-curvature sphere, which would call its own surface an occluder past the terminator;
-// never more than the mean, so a tube lit across keeps its sphere; never a plane, whose
-// facing test flips at θ = 90° (bright dashes along a torus's terminator). Negative mean
-// curvature is kept as it is.
+// least a quarter of the mean. A body curving slowly along the light (an egg lit from one
+// end) meets the light farther out than its mean-curvature sphere, which would call its own
+// surface an occluder past the terminator; never more than the mean, so a tube lit across
+// keeps its sphere; never a plane, whose facing test flips at θ = 90° (bright dashes along a
+// torus's terminator). Negative mean curvature is kept as it is.
 fn shadow_shape_curvature_per_mm(mean_per_mm: f32, along_light_per_mm: f32) -> f32 {
     if mean_per_mm <= 0.0 {
         return mean_per_mm;
