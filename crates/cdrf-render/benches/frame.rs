@@ -13,6 +13,7 @@
 //! cargo bench -p cdrf-render --bench frame                 # software adapter (lavapipe)
 //! cargo bench -p cdrf-render --bench frame -- --gpu        # whatever adapter wgpu prefers
 //! cargo bench -p cdrf-render --bench frame -- --frames 50 --rounds 5 [--bunny-only]
+//! cargo bench -p cdrf-render --bench frame -- --only measured --only "measured + all (256 patches)"
 //! ```
 
 use std::error::Error;
@@ -46,6 +47,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut rounds = 3;
     let mut preference = AdapterPreference::Software;
     let mut bunny_only = false;
+    // Variants to run (by name; every one when empty): a ratio is printed where both ran.
+    let mut only: Vec<String> = Vec::new();
     let mut args = std::env::args().skip(1);
     while let Some(arg) = args.next() {
         match arg.as_str() {
@@ -53,6 +56,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             "--frames" => frames = args.next().ok_or("--frames needs a number")?.parse()?,
             "--rounds" => rounds = args.next().ok_or("--rounds needs a number")?.parse()?,
             "--bunny-only" => bunny_only = true,
+            "--only" => only.push(args.next().ok_or("--only needs a variant's name")?),
             "--bench" => {}
             other => return Err(format!("unknown argument {other}").into()),
         }
@@ -245,7 +249,13 @@ fn main() -> Result<(), Box<dyn Error>> {
             specular: None,
             environment: None,
         };
-        let variants = variants();
+        let variants: Vec<Variant> = variants()
+            .into_iter()
+            .filter(|v| only.is_empty() || only.iter().any(|name| name == v.name))
+            .collect();
+        if variants.is_empty() {
+            return Err(format!("no variant is named {only:?}").into());
+        }
         let mut times = vec![Vec::new(); variants.len()];
         let mut assets = SceneAssets {
             mesh,
@@ -305,7 +315,12 @@ fn main() -> Result<(), Box<dyn Error>> {
                 median_of(times)
             );
         }
-        let ms = |name: &str| fastest[variants.iter().position(|v| v.name == name).unwrap()];
+        let ms = |name: &str| {
+            variants
+                .iter()
+                .position(|v| v.name == name)
+                .map(|i| fastest[i])
+        };
         for (label, numerator, denominator, goal) in [
             (
                 "measured / lambert",
@@ -380,10 +395,9 @@ fn main() -> Result<(), Box<dyn Error>> {
                 "",
             ),
         ] {
-            println!(
-                "  ratio {label:<44} {:.3}{goal}",
-                ms(numerator) / ms(denominator)
-            );
+            if let (Some(numerator), Some(denominator)) = (ms(numerator), ms(denominator)) {
+                println!("  ratio {label:<44} {:.3}{goal}", numerator / denominator);
+            }
         }
     }
     Ok(())
