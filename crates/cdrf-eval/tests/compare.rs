@@ -3,8 +3,8 @@
 //! beat both the Gaussian CDRF and Lambert in every region and metric and the non-local terms
 //! must change nothing; the torus, where they must cut the error; and the knot, where the
 //! subsurface gather and the inter-reflection must light the shadow side between the strands;
-//! and light from behind, where the view's azimuth and the confinement gain must keep the
-//! shadow side.
+//! light from behind, where the view's azimuth and the confinement gain must keep the shadow
+//! side; and a medium of short diffusion (Skin1), whose bodies must keep theirs.
 
 use cdrf_eval::{
     CaseResult, CaseSpec, ComparedModel, Models, Region, THETA_BIN_EDGES_DEG, read_manifest,
@@ -36,18 +36,19 @@ fn case(name: &str) -> CaseSpec {
         .unwrap_or_else(|| panic!("data/compare.toml has no case {name}"))
 }
 
-/// Case `name` of data/compare.toml at 128 × 128 pixels with the bundled fit, on the software
-/// adapter; its markdown tables are printed. A case of another medium (its own `fit`) is
-/// refused: it would be rendered with the wax's table.
+/// Case `name` of data/compare.toml at 128 × 128 pixels with the bundled fit, or the case's
+/// own where it names one (another medium), on the software adapter; its markdown tables are
+/// printed.
 fn run_small_case(name: &str) -> CaseResult {
     let device = HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|e| panic!("{e}"));
     let spec = case(name);
-    assert!(
-        spec.fit.is_none(),
-        "{name} brings its own fit; run_small_case renders the wax's"
-    );
+    let models = match &spec.fit {
+        Some(fit) => Models::from_files(&fit.join("measured.exr"), &fit.join("gaussian.toml"))
+            .unwrap_or_else(|e| panic!("{e}")),
+        None => models(),
+    };
     let result =
-        run_case(&device, &spec, &models(), Some(128), None).unwrap_or_else(|e| panic!("{e}"));
+        run_case(&device, &spec, &models, Some(128), None).unwrap_or_else(|e| panic!("{e}"));
     println!("{}", cdrf_eval::markdown(std::slice::from_ref(&result)));
     result
 }
@@ -337,5 +338,38 @@ fn light_from_behind_keeps_the_shadow_side() {
             .unwrap()
             .relative_rmse;
         assert!(rmse < whole, "{name}: whole object {rmse}");
+    }
+}
+
+/// A medium of short diffusion (Skin1: 1/σ_tr = 3.7 / 1.4 / 0.7 mm, its own fit of eight
+/// spheres r = 15…50 mm), at 128 px: the blob from the side and from behind (tuned on), the
+/// torus from behind (held out in session 14) and the capsule from the side and from behind
+/// (path-traced in session 15 and measured before any change: held out until they joined this
+/// test). With every term, every θ bin of at least 16 pixels within
+/// issue 37's 0.75–1.33 × the reference and the whole object within 15 %. When the issue was
+/// filed a skin-like body lit from the side was at 0.44–0.55 × past 90°.
+#[test]
+fn a_short_diffusion_medium_keeps_its_shadow_side() {
+    const MIN_BIN_PIXELS: usize = 16;
+    for name in [
+        "blob_skin1_side",
+        "blob_skin1_behind",
+        "torus_skin1_behind",
+        "capsule_skin1_side",
+        "capsule_skin1_behind",
+    ] {
+        let result = run_small_case(name);
+        let ratios = result.theta.ratios(compared("measured_all")).unwrap();
+        println!("{name}: bins {:?}", ratios.bins);
+        for (bin, ratio) in ratios.bins.iter().enumerate() {
+            if result.theta.pixels[bin] >= MIN_BIN_PIXELS {
+                assert!((0.75..=1.33).contains(ratio), "{name}, bin {bin}: {ratio}");
+            }
+        }
+        let rmse = result
+            .metrics(Region::Whole, compared("measured_all"))
+            .unwrap()
+            .relative_rmse;
+        assert!(rmse < 0.15, "{name}: whole object {rmse}");
     }
 }
