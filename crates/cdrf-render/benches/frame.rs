@@ -204,6 +204,11 @@ fn main() -> Result<(), Box<dyn Error>> {
         ]
     };
 
+    let names: Vec<&str> = variants().iter().map(|v| v.name).collect();
+    if let Some(unknown) = only.iter().find(|name| !names.contains(&name.as_str())) {
+        return Err(format!("no variant is named {unknown:?}; they are {names:?}").into());
+    }
+
     let bunny = Mesh::load(root.join("bunny/bunny.obj"))?.mesh;
     let mut meshes = vec![("bunny", bunny, 10.0)];
     if !bunny_only {
@@ -253,9 +258,6 @@ fn main() -> Result<(), Box<dyn Error>> {
             .into_iter()
             .filter(|v| only.is_empty() || only.iter().any(|name| name == v.name))
             .collect();
-        if variants.is_empty() {
-            return Err(format!("no variant is named {only:?}").into());
-        }
         let mut times = vec![Vec::new(); variants.len()];
         let mut assets = SceneAssets {
             mesh,
