@@ -66,17 +66,22 @@ def main():
     ap.add_argument('--dir', required=True, help='a copy of data/captures/multi (changed in place)')
     ap.add_argument('--spp', type=int, default=128)
     ap.add_argument('--pass-spp', type=int, default=16)
-    ap.add_argument('--only', nargs='*', default=['r50', 'r10', 'r20', 'r30'])
+    wax = ['r50', 'r10', 'r20', 'r30']       # the wax spheres' tiles (the matte one has none)
+    ap.add_argument('--only', nargs='+', default=wax, choices=wax)
     args = ap.parse_args()
     assert args.spp % args.pass_spp == 0
+    bundled = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'data',
+                           'captures', 'multi')
+    if os.path.realpath(args.dir) == os.path.realpath(bundled):
+        ap.error('--dir is the bundled set: copy it first (the bundled set is not refined)')
     scenes = mc.all_scenes()
     truth_path = os.path.join(args.dir, 'truth.json')
-    truth = json.load(open(truth_path))
+    with open(truth_path) as f:
+        truth = json.load(f)
     k = truth['k_electrons_per_radiance']
     by_short = {v: n for n, v in mc.MULTI_FLAG_SHORT.items()}
     for short in args.only:
         sphere = by_short[short]
-        assert not sphere.startswith('matte'), 'only the wax spheres have tiles of their own'
         frame = 'multi_flag_' + short
         sc = scenes[frame]
         tile, rad, seeds = render_tile(frame, sc, sphere, args.spp, args.pass_spp)
@@ -97,7 +102,7 @@ def main():
             'mitsuba_seeds': [seeds[0], seeds[-1]], 'noise_seed': noise_seed,
             'note': ('this sphere\'s tile re-rendered at the lit frame\'s samples per pixel '
                      '(scripts/captures/refine_flags.py); the rest of the frame is as rendered '
-                     f'at {entry.get("spp")} spp'),
+                     f'at {entry["render"]["spp"]} spp'),
         }
         tmp = truth_path + '.tmp'
         with open(tmp, 'w') as f:

@@ -342,22 +342,23 @@ fn light_from_behind_keeps_the_shadow_side() {
 }
 
 /// A medium of short diffusion (Skin1: 1/σ_tr = 3.7 / 1.4 / 0.7 mm, its own fit of eight
-/// spheres r = 15…50 mm), at 128 px: the blob from the side and from behind (tuned on), the
-/// torus from behind (held out in session 14) and the capsule from the side and from behind
-/// (path-traced in session 15 and measured before any change: held out until they joined this
-/// test). With every term, every θ bin of at least 16 pixels within issue 37's 0.75–1.33 × the
-/// reference and the whole object within 15 %. When the issue was filed a skin-like body lit
-/// from the side was at 0.44–0.55 × past 90°; before the confinement gain's seventh pass the
-/// Skin1 blob from behind was at 0.73 × over 100–110° (256 px).
+/// spheres r = 15…50 mm), at 128 px: the blob from the side and from behind, the torus from
+/// behind and the capsule from the side and from behind (the torus and the capsule path-traced
+/// to check the renderer on bodies it was not tuned on). With every term, every θ bin of at least
+/// 16 pixels within issue 37's 0.75–1.33 × the reference, and the whole object within 5 % lit
+/// from the side (the table alone: 4.4–4.6 %) and 15 % from behind. A skin-like body lit from
+/// the side was at 0.44–0.55 × past 90° when the issue was filed, and the Skin1 blob from behind
+/// at 0.73 × over 100–110° (256 px) before the confinement gain's fade from the terminator. The
+/// side-lit blob's 110–130° is 0.751 here: at the bound.
 #[test]
 fn a_short_diffusion_medium_keeps_its_shadow_side() {
     const MIN_BIN_PIXELS: usize = 16;
-    for name in [
-        "blob_skin1_side",
-        "blob_skin1_behind",
-        "torus_skin1_behind",
-        "capsule_skin1_side",
-        "capsule_skin1_behind",
+    for (name, whole) in [
+        ("blob_skin1_side", 0.05),
+        ("blob_skin1_behind", 0.15),
+        ("torus_skin1_behind", 0.15),
+        ("capsule_skin1_side", 0.05),
+        ("capsule_skin1_behind", 0.15),
     ] {
         let result = run_small_case(name);
         let ratios = result.theta.ratios(compared("measured_all")).unwrap();
@@ -371,6 +372,6 @@ fn a_short_diffusion_medium_keeps_its_shadow_side() {
             .metrics(Region::Whole, compared("measured_all"))
             .unwrap()
             .relative_rmse;
-        assert!(rmse < 0.15, "{name}: whole object {rmse}");
+        assert!(rmse < whole, "{name}: whole object {rmse}");
     }
 }
