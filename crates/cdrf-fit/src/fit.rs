@@ -584,16 +584,52 @@ pub const ROOM_DOMINATED: f32 = 3.0;
 /// three channels; merged like [`noisy_ranges`].
 pub fn room_dominated_ranges(fit: &CurveFit, k: usize, theta_deg: &[f32]) -> Vec<[f32; 2]> {
     let half = one_degree_nodes(theta_deg);
+    merged_ranges(theta_deg, |i| room_dominated_node(fit, k, i, half))
+}
+
+/// Whether node `i` of sphere `k` was measured and its flagged frame carried more than
+/// [`ROOM_DOMINATED`] times the curve's light, pooled over `half` nodes each side.
+fn room_dominated_node(fit: &CurveFit, k: usize, i: usize, half: usize) -> bool {
     let (ambient, model) = (&fit.node_ambient_sum[k], &fit.node_model_sum[k]);
-    merged_ranges(theta_deg, |i| {
-        let window = i.saturating_sub(half)..(i + half + 1).min(model.len());
-        let light: f32 = ambient[window.clone()]
-            .iter()
-            .map(|v| v.element_sum())
-            .sum();
-        let curve: f32 = model[window].iter().map(|v| v.element_sum()).sum();
-        fit.node_samples[k][i] >= 1.0 && light > ROOM_DOMINATED * curve
-    })
+    let window = i.saturating_sub(half)..(i + half + 1).min(model.len());
+    let light: f32 = ambient[window.clone()]
+        .iter()
+        .map(|v| v.element_sum())
+        .sum();
+    let curve: f32 = model[window].iter().map(|v| v.element_sum()).sum();
+    fit.node_samples[k][i] >= 1.0 && light > ROOM_DOMINATED * curve
+}
+
+/// Where the shadow side sets the diffusion profile's long terms (how far light travels under
+/// the surface, which the gather, the transmission and every continuation past a cut read):
+/// from this θ, degrees, on a sphere lit from the side only light that crossed the body is left.
+pub const DEEP_SHADOW_FROM_DEG: f32 = 110.0;
+
+/// Below this many degrees of deep shadow side measured on any sphere
+/// ([`measured_deep_shadow_deg`]), the profile's long terms are the fit's guess: the CLI warns.
+pub const DEEP_SHADOW_MIN_DEG: f32 = 10.0;
+
+/// The most degrees of shadow side past [`DEEP_SHADOW_FROM_DEG`] that one sphere of `fit` has
+/// measured: nodes with samples, before the sphere's cut ([`tails::cuts`]: its band narrower
+/// than the continuation's limit) and not dominated by the room's light. A photograph of
+/// several lit spheres can have none: each sphere's neighbours light its shadow side.
+pub fn measured_deep_shadow_deg(fit: &CurveFit) -> f32 {
+    let theta_deg = theta_nodes_deg(fit.settings.theta_count);
+    let half = one_degree_nodes(&theta_deg);
+    let step = theta_deg.get(1).map_or(0.0, |t| t - theta_deg[0]);
+    tails::cuts(fit)
+        .iter()
+        .enumerate()
+        .map(|(k, cut)| {
+            let end = cut.unwrap_or(theta_deg.len());
+            let measured = (0..end)
+                .filter(|&i| theta_deg[i] >= DEEP_SHADOW_FROM_DEG)
+                .filter(|&i| fit.node_samples[k][i] >= 1.0)
+                .filter(|&i| !room_dominated_node(fit, k, i, half))
+                .count();
+            measured as f32 * step
+        })
+        .fold(0.0, f32::max)
 }
 
 /// The θ ranges (degrees, from the node angles `theta_deg`) where the band, pooled over ±1°

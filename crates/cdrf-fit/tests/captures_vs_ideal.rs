@@ -20,15 +20,19 @@
 //! shadow sides (few samples per pixel), its 50 and 20 mm terminators (+4.5 % blue, −4.1 %
 //! green) and its 10 mm lit side (+2.0 % blue); the fit warns of the shadow sides (the flagged
 //! frame carried more than three times the lamp's light there), and this test fails a shadow
-//! side that misses both the bound and the band unwarned. What this
-//! test holds every capture to is what the fit reaches today, so that it cannot get worse
-//! unnoticed: see [`held_to`].
+//! side that misses both the bound and the band unwarned, and the several-sphere photograph
+//! alone measures no deep shadow side (past 110°) to set the profile's long terms, which the
+//! fit must also say (`measured_deep_shadow_deg`). What this test holds every capture to is
+//! what the fit reaches today, so that it cannot get worse unnoticed: see [`held_to`].
 
 use std::path::{Path, PathBuf};
 
 use cdrf_core::lut::{CdrfLut, Filter};
 use cdrf_fit::dataset::Dataset;
-use cdrf_fit::fit::{Fit, FitOptions, NodeBand, confidence_95, fit_dataset, room_dominated_ranges};
+use cdrf_fit::fit::{
+    DEEP_SHADOW_MIN_DEG, Fit, FitOptions, NodeBand, confidence_95, fit_dataset,
+    measured_deep_shadow_deg, room_dominated_ranges,
+};
 use glam::Vec3;
 
 fn data_dir() -> PathBuf {
@@ -99,6 +103,15 @@ fn check(case: &str) -> Vec<String> {
     let fit = fit_dataset(&dataset, &FitOptions::default(), |_| {})
         .unwrap_or_else(|e| panic!("{case}: {e}"));
     let mut failures = Vec::new();
+    // Only the several-sphere photograph leaves the profile's long terms unmeasured (its
+    // spheres light each other's shadow sides), and the fit must say so.
+    let deep_deg = measured_deep_shadow_deg(&fit.curves.chosen);
+    println!("{case:>6}: shadow side past 110° measured over {deep_deg:.1}°");
+    if (deep_deg < DEEP_SHADOW_MIN_DEG) != (case == "multi") {
+        failures.push(format!(
+            "{case}: {deep_deg:.1}° of deep shadow side measured (warns below {DEEP_SHADOW_MIN_DEG}°)"
+        ));
+    }
     for (k, sphere) in fit.spheres.iter().enumerate() {
         let kappa = 1.0 / sphere.radius_mm;
         let mut line = format!("{case:>6} r = {:>2} mm:", sphere.radius_mm);
