@@ -281,6 +281,10 @@ impl FittedTransmission {
 /// `[R, G, B]`.
 #[derive(Clone, Debug, Serialize)]
 pub struct DiffusionSummary {
+    /// Degrees of shadow side past θ = 110° that the sphere with the most has measured (before
+    /// its cut, free of the room's light): below 10 the profile's long terms are a guess, and
+    /// the CLI warns. See [`crate::fit::measured_deep_shadow_deg`].
+    pub measured_deep_shadow_deg: f32,
     /// Why the profile could not be fitted; then `measured.exr` has no profile and the fields
     /// below are absent.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -331,8 +335,10 @@ pub struct DiffusionSphere {
 
 impl DiffusionSummary {
     fn new(fit: &Fit) -> Self {
+        let measured_deep_shadow_deg = crate::fit::measured_deep_shadow_deg(&fit.curves.chosen);
         match &fit.diffusion {
             Ok(diffusion) => Self {
+                measured_deep_shadow_deg,
                 error: None,
                 fitted: Some(FittedDiffusion {
                     entry_cosine_power: diffusion.profile.entry_cosine_power(),
@@ -365,6 +371,7 @@ impl DiffusionSummary {
                 }),
             },
             Err(error) => Self {
+                measured_deep_shadow_deg,
                 error: Some(error.to_string()),
                 fitted: None,
             },

@@ -712,6 +712,17 @@ fn three_spheres_give_every_output() {
         assert!(rms > 0.0 && rms < 0.3, "relative RMS {c}: {rms}");
     }
     assert_eq!(section["spheres"].as_array().map(Vec::len), Some(3));
+    // Photographs of lone spheres in a dark room measure the deep shadow side: no warning.
+    let deep_deg = section["measured_deep_shadow_deg"].as_f64().unwrap();
+    assert!(
+        deep_deg >= 10.0,
+        "deep shadow side measured over {deep_deg}°"
+    );
+    assert!(
+        !run.stderr.contains("no sphere's shadow side is measured"),
+        "{}",
+        run.stderr
+    );
     let svg = std::fs::read_to_string(cmd.out().join("profile.svg")).expect("plot");
     assert!(
         svg.starts_with("<svg") && svg.contains("albedo"),
