@@ -12,6 +12,7 @@ use cdrf_eval::{
 };
 use cdrf_render::headless::{AdapterPreference, HeadlessDevice};
 use cdrf_tests::data_dir;
+use std::path::Path;
 
 /// The compared model named `name` in compare.json (`measured_shadows`).
 fn compared(name: &str) -> ComparedModel {
@@ -21,11 +22,15 @@ fn compared(name: &str) -> ComparedModel {
         .unwrap_or_else(|| panic!("no compared model is named {name}"))
 }
 
-/// The bundled fit's models.
-fn models() -> Models {
-    let fit = data_dir().join("wax-fit");
+/// The models of the cdrf-fit output folder `fit`.
+fn fit_models(fit: &Path) -> Models {
     Models::from_files(&fit.join("measured.exr"), &fit.join("gaussian.toml"))
         .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The bundled fit's models.
+fn models() -> Models {
+    fit_models(&data_dir().join("wax-fit"))
 }
 
 fn case(name: &str) -> CaseSpec {
@@ -42,11 +47,7 @@ fn case(name: &str) -> CaseSpec {
 fn run_small_case(name: &str) -> CaseResult {
     let device = HeadlessDevice::new(AdapterPreference::Software).unwrap_or_else(|e| panic!("{e}"));
     let spec = case(name);
-    let models = match &spec.fit {
-        Some(fit) => Models::from_files(&fit.join("measured.exr"), &fit.join("gaussian.toml"))
-            .unwrap_or_else(|e| panic!("{e}")),
-        None => models(),
-    };
+    let models = spec.fit.as_deref().map_or_else(models, fit_models);
     let result =
         run_case(&device, &spec, &models, Some(128), None).unwrap_or_else(|e| panic!("{e}"));
     println!("{}", cdrf_eval::markdown(std::slice::from_ref(&result)));
@@ -292,8 +293,7 @@ fn a_case_of_another_medium_brings_its_own_fit() {
     let skin = case("blob_skin1_side");
     let fit = skin.fit.clone().expect("the Skin1 case names its fit");
     assert_eq!(fit, data_dir().join("skin1-fit"));
-    let skin_models = Models::from_files(&fit.join("measured.exr"), &fit.join("gaussian.toml"))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let skin_models = fit_models(&fit);
     assert_ne!(skin_models.lambert_albedo, models().lambert_albedo);
     assert_eq!(case("blob_side").fit, None);
 }

@@ -715,7 +715,7 @@ fn three_spheres_give_every_output() {
     // Photographs of lone spheres in a dark room measure the deep shadow side: no warning.
     let deep_deg = section["measured_deep_shadow_deg"].as_f64().unwrap();
     assert!(
-        deep_deg >= 10.0,
+        deep_deg >= f64::from(cdrf_fit::fit::DEEP_SHADOW_MIN_DEG),
         "deep shadow side measured over {deep_deg}°"
     );
     assert!(
