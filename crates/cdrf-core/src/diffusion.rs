@@ -196,6 +196,52 @@ impl DiffusionProfile {
         })
     }
 
+    /// How the near field below the cut `cut_mm` (`R − R_far` of [`FarField`], which the
+    /// measured table keeps) spreads light around a point: the share per channel that lands in
+    /// each of `taps` equal-area rings of a disc of radius `disc_mm` (ring k from
+    /// `disc·√((k − ½)/taps)` to `disc·√((k + ½)/taps)`, ring 0 a disc), normalised to sum 1
+    /// over the disc. A term of length ℓ keeps
+    /// `w·exp(−d/ℓ)/(2πℓd)` below the cut and `w·(ℓ_c/ℓ)·exp(−d/ℓ_c)/(2πℓ_c·d)` above it, and
+    /// either puts `w·(exp(−a/ℓ') − exp(−b/ℓ'))` between radii a and b. These are the weights of
+    /// a penumbra that spreads as the table's own light does: a channel that diffuses a short
+    /// way sees only the lit surface close to the point. A channel the profile gives no light
+    /// (or a disc that is no length) gets a Gaussian of standard deviation `disc/2` instead.
+    pub fn near_field_ring_shares(&self, cut_mm: f64, disc_mm: f64, taps: usize) -> Vec<[f32; 3]> {
+        let rings = taps.max(1) as f64;
+        let edge = |k: f64| disc_mm * (k.max(0.0) / rings).sqrt();
+        let mut shares: Vec<[f64; 3]> = (0..taps)
+            .map(|k| {
+                let (a, b) = (edge(k as f64 - 0.5), edge(k as f64 + 0.5));
+                let mut share = [0.0; 3];
+                for term in &self.terms {
+                    let length = f64::from(term.length_mm);
+                    let (kept, scale) = if cut_mm > 0.0 && length > cut_mm {
+                        (cut_mm, cut_mm / length)
+                    } else {
+                        (length, 1.0)
+                    };
+                    let ring = (-a / kept).exp() - (-b / kept).exp();
+                    for (c, w) in share.iter_mut().zip(term.weight) {
+                        *c += f64::from(w) * scale * ring;
+                    }
+                }
+                share
+            })
+            .collect();
+        for c in 0..3 {
+            let total: f64 = shares.iter().map(|s| s[c]).sum();
+            let usable = total.is_finite() && total > 0.0 && disc_mm.is_finite() && disc_mm > 0.0;
+            for (k, share) in shares.iter_mut().enumerate() {
+                share[c] = if usable {
+                    share[c] / total
+                } else {
+                    (-2.0 * k as f64 / rings).exp()
+                };
+            }
+        }
+        shares.into_iter().map(|s| s.map(|v| v as f32)).collect()
+    }
+
     /// `R(d)` per channel, mm⁻² (infinite at d = 0, as every term is).
     pub fn radial_reflectance_per_mm2(&self, distance_mm: f64) -> [f64; 3] {
         let d = distance_mm.max(0.0);
@@ -510,6 +556,18 @@ mod tests {
         .unwrap()
     }
 
+    /// One 2 mm term that gives green no light.
+    fn dark_green_profile() -> DiffusionProfile {
+        DiffusionProfile::new(
+            vec![ProfileTerm {
+                length_mm: 2.0,
+                weight: [0.5, 0.0, 0.25],
+            }],
+            1.0,
+        )
+        .unwrap()
+    }
+
     #[test]
     fn mean_distance_is_the_profiles_own() {
         // ∫ d·2πd·R(d) dd / ∫ 2πd·R(d) dd with the ring density, by a midpoint rule in
@@ -538,15 +596,67 @@ mod tests {
         }
         // Red reaches farthest in this profile; a channel with no light has no distance.
         assert!(mean[0] > mean[1] && mean[1] > mean[2], "{mean:?}");
-        let dark = DiffusionProfile::new(
-            vec![ProfileTerm {
-                length_mm: 2.0,
-                weight: [0.5, 0.0, 0.25],
-            }],
-            1.0,
-        )
-        .unwrap();
+        let dark = dark_green_profile();
         assert_eq!(dark.mean_distance_mm(), [2.0, 0.0, 2.0]);
+    }
+
+    #[test]
+    fn near_field_ring_shares_are_the_near_fields_light_per_ring() {
+        // The near field R − R_far integrated over each ring by a midpoint rule in u = ln d
+        // (ring 0 from 1e-9 mm), normalised over the disc, against the closed form.
+        let profile = profile();
+        let (cut, disc, taps) = (1.0, 2.0, 64);
+        let far = FarField::new(&profile, cut);
+        let shares = profile.near_field_ring_shares(cut, disc, taps);
+        assert_eq!(shares.len(), taps);
+        let edge = |k: f64| disc * (k.max(0.0) / taps as f64).sqrt();
+        let mut numeric = vec![[0.0f64; 3]; taps];
+        for (k, ring) in numeric.iter_mut().enumerate() {
+            let (a, b) = (edge(k as f64 - 0.5).max(1e-9), edge(k as f64 + 0.5));
+            let steps = 4000;
+            let du = (b.ln() - a.ln()) / f64::from(steps);
+            for i in 0..steps {
+                let d = (a.ln() + (f64::from(i) + 0.5) * du).exp();
+                let (whole, outer) = (
+                    profile.radial_reflectance_per_mm2(d),
+                    far.reflectance_per_mm2(d),
+                );
+                for c in 0..3 {
+                    ring[c] += (whole[c] - outer[c]) * TAU * d * d * du;
+                }
+            }
+        }
+        for c in 0..3 {
+            let total: f64 = numeric.iter().map(|r| r[c]).sum();
+            for (k, (share, ring)) in shares.iter().zip(&numeric).enumerate() {
+                let expected = ring[c] / total;
+                assert!(
+                    (f64::from(share[c]) - expected).abs() < 1e-4 * expected.max(1e-3),
+                    "channel {c}, ring {k}: {} vs numeric {expected}",
+                    share[c]
+                );
+            }
+            let sum: f32 = shares.iter().map(|s| s[c]).sum();
+            assert!((sum - 1.0).abs() < 1e-5, "channel {c} sums to {sum}");
+        }
+        // Blue's near field is the shortest: more of it lands in the inner half of the taps.
+        let inner = |c: usize| shares[..taps / 2].iter().map(|s| s[c]).sum::<f32>();
+        assert!(
+            inner(2) > inner(1) && inner(1) > inner(0),
+            "{:?}",
+            [inner(0), inner(1), inner(2)]
+        );
+        // A channel without light, and a disc that is no length, fall back to a Gaussian.
+        let dark = dark_green_profile();
+        for shares in [
+            dark.near_field_ring_shares(1.0, 2.0, 8),
+            profile.near_field_ring_shares(1.0, 0.0, 8),
+        ] {
+            for (k, share) in shares.iter().enumerate() {
+                let gaussian = (-2.0 * k as f32 / 8.0).exp();
+                assert!(share[1].is_finite() && (share[1] - gaussian).abs() < 1e-6);
+            }
+        }
     }
 
     /// A plain midpoint rule over the sphere's surface in (α, β), with R(d)·r²·sin α: an

@@ -92,7 +92,8 @@ fn non_local_terms(
     let transmits = TRANSMISSION && !gathers;
     // The penumbra's width: the light the CDRF spreads under a shadow's edge reaches about σ;
     // with the subsurface gather the table keeps only its near field, which reaches about the
-    // cut ℓ_c (the gather brings the rest from the lit surface that is there).
+    // cut ℓ_c (the gather brings the rest from the lit surface that is there), each channel
+    // as far as its own near field does (the taps' weights).
     var penumbra_mm = sigma_max;
     if gathers {
         penumbra_mm = material.subsurface_cut_mm;
@@ -136,13 +137,13 @@ fn non_local_terms(
         if k > 0u && expected > -1e29 && occluder > expected + tolerance {
             continue;
         }
-        // Gaussian weight of the tap per channel (σ per channel), precomputed per material;
-        // with the gather, one width for every channel: the taps reach 2ℓ_c, so tap k's weight
-        // is exp(−2k / PENUMBRA_TAPS).
+        // The tap's weight per channel, precomputed per material: a Gaussian of σ per channel;
+        // with the gather, the share of the table's near field that lands at the tap's ring
+        // (a channel that diffuses a short way sees only the lit surface close to the point).
         var weight = vec3<f32>(1.0);
         if taps > 1u {
             if gathers {
-                weight = vec3<f32>(exp(-2.0 * f32(k) / f32(PENUMBRA_TAPS)));
+                weight = material.near_field_taps[k].weight;
             } else {
                 weight = material.penumbra_taps[k].weight;
             }

@@ -82,7 +82,7 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// The Gaussian weight per channel of one penumbra tap (`PenumbraTap`).
+    /// The weight per channel of one penumbra tap (`PenumbraTap`).
     GpuPenumbraTap as "PenumbraTap" {
         weight: Vec3,
         _pad0: f32,
@@ -119,6 +119,7 @@ gpu_struct! {
         view_layers: f32,
         subsurface_cut_mm: f32,
         penumbra_taps: [GpuPenumbraTap; PENUMBRA_TAPS],
+        near_field_taps: [GpuPenumbraTap; PENUMBRA_TAPS],
         subsurface_kernel: [[f32; 4]; SUBSURFACE_KERNEL_SAMPLES],
         environment_zonal: [[f32; 4]; ENVIRONMENT_ZONAL_ROWS * ENVIRONMENT_SH_BANDS],
     }
