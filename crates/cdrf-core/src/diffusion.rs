@@ -196,16 +196,16 @@ impl DiffusionProfile {
         })
     }
 
-    /// How the near field below the cut `cut_mm` (`R − R_far` of [`FarField`], which the
-    /// measured table keeps) spreads light around a point: the share per channel that lands in
-    /// each of `taps` equal-area rings of a disc of radius `disc_mm` (ring k from
-    /// `disc·√((k − ½)/taps)` to `disc·√((k + ½)/taps)`, ring 0 a disc), normalised to sum 1
-    /// over the disc. A term of length ℓ keeps
-    /// `w·exp(−d/ℓ)/(2πℓd)` below the cut and `w·(ℓ_c/ℓ)·exp(−d/ℓ_c)/(2πℓ_c·d)` above it, and
-    /// either puts `w·(exp(−a/ℓ') − exp(−b/ℓ'))` between radii a and b. These are the weights of
-    /// a penumbra that spreads as the table's own light does: a channel that diffuses a short
-    /// way sees only the lit surface close to the point. A channel the profile gives no light
-    /// (or a disc that is no length) gets a Gaussian of standard deviation `disc/2` instead.
+    /// How the near field (`R − R_far` of [`FarField`] with cut `cut_mm`, which the measured
+    /// table keeps) spreads light around a point: the share per channel that lands in each of
+    /// `taps` rings of a disc of radius `disc_mm` — ring k from `disc·√((k − ½)/taps)` to
+    /// `disc·√((k + ½)/taps)` (ring 0 the central disc, half the others' area), the ring of a
+    /// Vogel spiral's tap k — normalised to sum 1 over the rings. A term of length ℓ ≤ ℓ_c
+    /// stays whole, `w·exp(−d/ℓ)/(2πℓd)`; a longer one keeps `w·(ℓ_c/ℓ)·exp(−d/ℓ_c)/(2πℓ_c·d)`;
+    /// either puts `w'·(exp(−a/ℓ') − exp(−b/ℓ'))` between radii a and b. These are the weights
+    /// of a penumbra that spreads as the table's own light does: a channel that diffuses a
+    /// short way sees only the lit surface close to the point. A channel the profile gives no
+    /// light (or a disc that is no length) gets a Gaussian of standard deviation `disc/2`.
     pub fn near_field_ring_shares(&self, cut_mm: f64, disc_mm: f64, taps: usize) -> Vec<[f32; 3]> {
         let rings = taps.max(1) as f64;
         let edge = |k: f64| disc_mm * (k.max(0.0) / rings).sqrt();

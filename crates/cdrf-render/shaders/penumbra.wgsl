@@ -125,7 +125,7 @@ fn non_local_terms(
     // Every tap is read: where a few probes decide whether to read the rest, neighbouring
     // vertices jump between all-or-nothing and the full average (hard, jagged shadow edges).
     for (var k = 0u; k < taps; k++) {
-        let tap = spiral_tap(shape, k, 2.0 * penumbra_mm);
+        let tap = spiral_tap(shape, k, PENUMBRA_DISC_PER_WIDTH * penumbra_mm);
         let ray = light_ray(index, tap.surface);
         let tap_depth = light_depth(index, tap.surface);
         let expected = expected_first_surface(shape, tap, tap_depth, dot(tap.facing, ray));

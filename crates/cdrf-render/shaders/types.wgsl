@@ -43,7 +43,7 @@ struct Frame {
     environment_sh: array<vec4<f32>, ENVIRONMENT_SH_COEFFICIENTS>,
 }
 
-// The Gaussian weight per channel of one penumbra tap.
+// The weight per channel of one penumbra tap.
 struct PenumbraTap {
     weight: vec3<f32>,
 }

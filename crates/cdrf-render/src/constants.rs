@@ -16,12 +16,16 @@ pub const MAX_LIGHTS: usize = 16;
 pub const MAX_SHADOW_LIGHTS: usize = 4;
 /// Faces of a shadowed light's map at most (a cube).
 pub(crate) const MAX_SHADOW_FACES: usize = 6;
-/// Penumbra taps per shadowed light: the centre and a Vogel spiral out to 2σ, the same spiral
+/// Penumbra taps per shadowed light: the centre and a Vogel spiral out to
+/// [`PENUMBRA_DISC_PER_WIDTH`] × the penumbra's width (σ; ℓ_c with the gather), the same spiral
 /// at every vertex and every tap read, so neighbouring vertices agree about a shadow's edge.
 /// Each tap's lit-or-not is a step, so an edge crossing the spiral moves the sum in steps of
 /// a tap's weight: this many keeps those steps from showing as streaks along cast shadows.
 /// The vertex terms pass reads them once per vertex.
 pub(crate) const PENUMBRA_TAPS: usize = 256;
+/// The penumbra spiral's radius in widths (the shader's taps; the near field's tap weights
+/// are computed over the same disc).
+pub(crate) const PENUMBRA_DISC_PER_WIDTH: f32 = 2.0;
 /// Invocations per workgroup of the compute passes (the WGSL's `@workgroup_size`).
 pub(crate) const COMPUTE_WORKGROUP_SIZE: u32 = 64;
 /// Samples of the subsurface gather's far-field kernel R_far(d), on a square-root grid in d

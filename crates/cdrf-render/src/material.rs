@@ -11,8 +11,8 @@ use cdrf_core::{CdrfLut, CurvatureAxis, ShadingModel, ViewCorrection};
 use wgpu::util::DeviceExt;
 
 use crate::constants::{
-    ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_ORDER, ENVIRONMENT_ZONAL_ROWS, Model, PENUMBRA_TAPS,
-    SUBSURFACE_KERNEL_SAMPLES,
+    ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_ORDER, ENVIRONMENT_ZONAL_ROWS, Model,
+    PENUMBRA_DISC_PER_WIDTH, PENUMBRA_TAPS, SUBSURFACE_KERNEL_SAMPLES,
 };
 use crate::error::MaterialError;
 use crate::gpu_data::rgba16f_texels;
@@ -245,10 +245,10 @@ impl MaterialFactory {
                         {
                             *texel = [value.x, value.y, value.z, 0.0];
                         }
-                        // Over the disc the penumbra's spiral covers (2ℓ_c, penumbra.wgsl).
+                        // Over the disc the penumbra's spiral covers (penumbra.wgsl).
                         near_field_taps = Some(profile.near_field_ring_shares(
                             far.cut_mm(),
-                            2.0 * far.cut_mm(),
+                            f64::from(PENUMBRA_DISC_PER_WIDTH) * far.cut_mm(),
                             PENUMBRA_TAPS,
                         ));
                         subsurface = Some(tables);

@@ -66,6 +66,10 @@ pub fn wgsl_constants() -> String {
     }
     // The view's azimuth (cdrf-core's azimuth module; tables.wgsl's view_azimuth).
     for (name, value) in [
+        (
+            "PENUMBRA_DISC_PER_WIDTH",
+            crate::constants::PENUMBRA_DISC_PER_WIDTH,
+        ),
         ("SHADOW_FLUX_GAIN", cdrf_core::azimuth::SHADOW_FLUX_GAIN),
         ("AZIMUTH_LIT_MIN_SINE", cdrf_core::azimuth::LIT_MIN_SINE),
         (
