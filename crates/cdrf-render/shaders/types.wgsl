@@ -88,11 +88,12 @@ struct Material {
     // The subsurface gather's cut ℓ_c, mm: the reach of the table's near field it leaves to
     // the table (and the penumbra's width with the gather).
     subsurface_cut_mm: f32,
-    // Without the gather: tap k lies at radius 2σ_max·√(k / PENUMBRA_TAPS), weighted by a
-    // Gaussian of each channel's σ.
+    // Without the gather: tap k lies at radius PENUMBRA_DISC_PER_WIDTH·σ_max·√(k /
+    // PENUMBRA_TAPS), weighted by a Gaussian of each channel's σ.
     penumbra_taps: array<PenumbraTap, PENUMBRA_TAPS>,
-    // With the gather: tap k lies at radius 2ℓ_c·√(k / PENUMBRA_TAPS), weighted by the share of
-    // the table's near field that lands there (cdrf-core's near_field_ring_shares).
+    // With the gather: the same spiral over PENUMBRA_DISC_PER_WIDTH·ℓ_c, each tap weighted by the
+    // share of the table's near field that lands at its ring (cdrf-core's
+    // near_field_ring_shares).
     near_field_taps: array<PenumbraTap, PENUMBRA_TAPS>,
     // The subsurface gather's R_far(d) per channel (mm⁻², xyz) at
     // d = reach · (i / (SUBSURFACE_KERNEL_SAMPLES − 1))²: a uniform array, not a texture, as

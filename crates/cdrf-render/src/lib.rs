@@ -123,8 +123,8 @@
 //! light's lit surface into a pyramid ([`Options::subsurface_cut_mm`],
 //! [`Options::subsurface_max_resolution`]) that every vertex gathers, and the shading reads the
 //! table without what it already holds through the osculating sphere. For a material with a
-//! profile it replaces T(d, μ), and the penumbra spreads as the table's near field does (about the
-//! cut's width, per channel).
+//! profile it replaces T(d, μ), and the penumbra spreads as the table's near field does
+//! (about the cut's width, per channel).
 
 mod constants;
 mod draw_buffer;

@@ -228,8 +228,6 @@ impl MaterialFactory {
         let tabulated;
         // R_far(d) and F_sphere(κ, θ) of the subsurface gather (none: zero, no gather).
         let mut subsurface = None;
-        // With the gather, the penumbra's tap weights from the profile's near field.
-        let mut near_field_taps = None;
         let model = Model::new(desc.model(), options.gaussian);
         let (lut, view) = match *desc {
             MaterialDesc::Measured { lut } => {
@@ -245,12 +243,16 @@ impl MaterialFactory {
                         {
                             *texel = [value.x, value.y, value.z, 0.0];
                         }
-                        // Over the disc the penumbra's spiral covers (penumbra.wgsl).
-                        near_field_taps = Some(profile.near_field_ring_shares(
+                        // The penumbra's tap weights with the gather, over the disc its
+                        // spiral covers (penumbra.wgsl).
+                        let shares = profile.near_field_ring_shares(
                             far.cut_mm(),
                             f64::from(PENUMBRA_DISC_PER_WIDTH) * far.cut_mm(),
                             PENUMBRA_TAPS,
-                        ));
+                        );
+                        for (tap, share) in uniforms.near_field_taps.iter_mut().zip(shares) {
+                            tap.weight = Vec3::from_array(share);
+                        }
                         subsurface = Some(tables);
                     }
                 }
@@ -304,11 +306,6 @@ impl MaterialFactory {
         };
 
         uniforms.penumbra_taps = penumbra_taps(uniforms.scattering_length_mm);
-        if let Some(shares) = near_field_taps {
-            for (tap, share) in uniforms.near_field_taps.iter_mut().zip(shares) {
-                tap.weight = Vec3::from_array(share);
-            }
-        }
 
         let lut_texture = match lut {
             Some(lut) => {

@@ -15,7 +15,7 @@ use crate::constants::{
     COMPUTE_WORKGROUP_SIZE, ENVIRONMENT_SH_BANDS, ENVIRONMENT_SH_COEFFICIENTS,
     ENVIRONMENT_ZONAL_ROWS, GPU_LIGHT_DIRECTIONAL, GPU_LIGHT_POINT, GPU_LIGHT_SPOT,
     GPU_SHADOW_ORTHOGRAPHIC, GPU_SHADOW_PERSPECTIVE, MAX_LIGHTS, MAX_SHADOW_FACES,
-    MAX_SHADOW_LIGHTS, Model, PENUMBRA_TAPS, SUBSURFACE_KERNEL_SAMPLES,
+    MAX_SHADOW_LIGHTS, Model, PENUMBRA_DISC_PER_WIDTH, PENUMBRA_TAPS, SUBSURFACE_KERNEL_SAMPLES,
 };
 use crate::gpu_types::GpuVertex;
 
@@ -64,12 +64,12 @@ pub fn wgsl_constants() -> String {
     ] {
         wgsl.push_str(&format!("const {name}: u32 = {value}u;\n"));
     }
+    // The penumbra spiral's radius in widths (penumbra.wgsl; the material's near-field taps).
+    wgsl.push_str(&format!(
+        "const PENUMBRA_DISC_PER_WIDTH: f32 = {PENUMBRA_DISC_PER_WIDTH:?};\n"
+    ));
     // The view's azimuth (cdrf-core's azimuth module; tables.wgsl's view_azimuth).
     for (name, value) in [
-        (
-            "PENUMBRA_DISC_PER_WIDTH",
-            crate::constants::PENUMBRA_DISC_PER_WIDTH,
-        ),
         ("SHADOW_FLUX_GAIN", cdrf_core::azimuth::SHADOW_FLUX_GAIN),
         ("AZIMUTH_LIT_MIN_SINE", cdrf_core::azimuth::LIT_MIN_SINE),
         (
