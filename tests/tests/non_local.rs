@@ -723,9 +723,11 @@ fn interreflection_bounces_as_inside_a_hollow_sphere() {
 /// face is E_q · μ_q^p per unit area, E_q and μ_q from each point's own light vector
 /// (cdrf-core's `Light::incidence`), p the profile's entry cosine power; the front's own
 /// irradiance E_p scales the F_sphere the table already holds (its curvature is clamped to the
-/// table's first row): the front gains (∫ E_q μ_q^p R_far(√(t² + ρ²)) dA − E_p F_sphere) ·
-/// g(π, 0)/π, which the test integrates on its own on a fine grid from cdrf-core's `FarField`.
-/// The renderer sums the back face's texels in the light's pyramid.
+/// table's first row): the front gains (∫ E_q μ_q^p w_q R_far(√(t² + ρ²)) dA − E_p F_sphere) ·
+/// g(π, 0)/π, w_q the upstream loss (1 − UPSTREAM_LOSS·max(−c, 0), c the cosine between q's ray
+/// and q's direction to the point: the point light's rays spread, so the point lies upstream of
+/// the back face's far parts), which the test integrates on its own on a fine grid from
+/// cdrf-core's `FarField`. The renderer sums the back face's texels in the light's pyramid.
 #[test]
 fn the_subsurface_gather_matches_the_profile_through_a_slab() {
     use cdrf_core::diffusion::FarField;
@@ -779,9 +781,15 @@ fn the_subsurface_gather_matches_the_profile_through_a_slab() {
                 let incidence = light.incidence(Vec3::new(x as f32, y as f32, back_mm), 1.0);
                 // The back face's normal is −z.
                 let mu = f64::from(-incidence.to_light.z).max(0.0);
+                let distance = (x * x + y * y + t * t).sqrt();
+                // The ray at q is −to_light; q to the point (0, 0, t/2) is (−x, −y, t).
+                let ray = -incidence.to_light.as_dvec3();
+                let c = (-x * ray.x - y * ray.y + t * ray.z) / distance;
+                let loss = f64::from(cdrf_core::diffusion::UPSTREAM_LOSS) * (-c).max(0.0);
                 integral += f64::from(incidence.irradiance[0])
                     * mu.powf(power)
-                    * far.reflectance_per_mm2((x * x + y * y + t * t).sqrt())[0];
+                    * (1.0 - loss).max(0.0)
+                    * far.reflectance_per_mm2(distance)[0];
             }
         }
         integral *= cell_mm * cell_mm;
@@ -823,8 +831,10 @@ fn the_subsurface_gather_leaves_a_sphere_as_the_table_renders_it() {
     };
     // A directional light; a point light 2 m away, which must do the same; and one 80 mm from
     // the centre (one perspective face), under which the sphere is not the table's: its lit cap
-    // is smaller and its irradiance falls by 1.9 × across it, so what the gather finds differs
-    // from F_sphere by more (bounds: mean, largest change over the peak).
+    // is smaller, its irradiance falls by 1.9 × across it and its rays spread by up to 18°,
+    // which the gather's upstream loss follows and F_sphere's parallel light does not, so what
+    // the gather finds differs from F_sphere by more (bounds: mean, largest change over the
+    // peak; 1.8 % / 3.6 % before the upstream loss, 2.3 % / 6.9 % with it).
     for (light, bounds) in [
         (
             Light::Directional(DirectionalLight {
@@ -845,7 +855,7 @@ fn the_subsurface_gather_leaves_a_sphere_as_the_table_renders_it() {
                 position: 80.0 * to_light,
                 intensity: [55.0 * 55.0; 3],
             }),
-            (0.03, 0.06),
+            (0.03, 0.08),
         ),
     ] {
         let table = render_predictable(&scene_lit(30.0, light, NonLocal::OFF), &assets);

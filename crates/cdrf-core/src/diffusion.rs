@@ -34,6 +34,18 @@
 //! lit arc starts, ends or closes. The rule is fixed, so the result is smooth in θ, r and p, as a
 //! fitter needs; it agrees with a brute-force surface quadrature to ~1e-6 (tested).
 //!
+//! # Against the light's travel
+//! Light entering a lit point moves on along the light's travel before it diffuses, so less of
+//! it comes back to a point lying *upstream* of where it entered (nearer the light along the
+//! light's direction) than the isotropic profile says. The far field a renderer gathers
+//! ([`FarField`]) weighs each source by `1 − UPSTREAM_LOSS · max(−c, 0)`, c the cosine between
+//! the light's travel and the direction from the source to the point (c > 0: the point lies
+//! downstream). On a sphere's shadow side every lit point lies upstream of the point (c > 0),
+//! and on a plane lit head-on every point is level with it (c = 0): neither changes; light
+//! running back up a lit slope or a fold does. The profile itself, fitted to the spheres'
+//! f, stays isotropic: the loss only moves light between the gathered far field and the
+//! table's near field (`f − F_sphere`), so a sphere keeps its table.
+//!
 //! ```
 //! use cdrf_core::diffusion::{DiffusionProfile, ProfileTerm};
 //!
@@ -64,6 +76,13 @@ pub const MAX_PROFILE_TERMS: usize = 16;
 
 /// Largest entry cosine power accepted.
 pub const MAX_ENTRY_COSINE_POWER: f32 = 4.0;
+
+/// How much of a source's far field a point lying straight upstream of it loses (see
+/// [Against the light's travel](self#against-the-lights-travel)): the weight is
+/// `1 − UPSTREAM_LOSS · max(−c, 0)`. Fitted to the knot, the torus and the thick bodies
+/// lit from the side and from behind (docs/research/thick-bodies.md, tenth pass); 2 takes the
+/// side-lit casts further but the knot's cast and the torus's shadow side too far.
+pub const UPSTREAM_LOSS: f32 = 1.0;
 
 /// One term `w · exp(−d/ℓ) / (2π·ℓ·d)` of a [`DiffusionProfile`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -421,11 +440,12 @@ impl FarField {
         };
         scratch.clear();
         scratch.resize(self.lengths_mm.len(), 0.0);
-        sphere_term_responses(
+        sphere_responses(
             &self.lengths_mm,
             radius_mm,
             theta_rad,
             self.entry_cosine_power,
+            f64::from(UPSTREAM_LOSS),
             scratch,
         );
         let cut_response = scratch[self.weights.len()];
@@ -453,6 +473,26 @@ pub fn sphere_term_responses(
     radius_mm: f64,
     theta_rad: f64,
     entry_cosine_power: f64,
+    out: &mut [f64],
+) {
+    sphere_responses(
+        lengths_mm,
+        radius_mm,
+        theta_rad,
+        entry_cosine_power,
+        0.0,
+        out,
+    );
+}
+
+/// [`sphere_term_responses`] with each source weighed by `1 − upstream_loss · max(−c, 0)`
+/// ([`UPSTREAM_LOSS`]; 0: isotropic).
+fn sphere_responses(
+    lengths_mm: &[f64],
+    radius_mm: f64,
+    theta_rad: f64,
+    entry_cosine_power: f64,
+    upstream_loss: f64,
     out: &mut [f64],
 ) {
     assert_eq!(lengths_mm.len(), out.len(), "one output per length");
@@ -493,7 +533,10 @@ pub fn sphere_term_responses(
             let lo = a + width * i as f64;
             for_each_node(&GAUSS_LEGENDRE_16, lo, lo + width, |d, w| {
                 let alpha = 2.0 * (d / diameter_mm).min(1.0).asin();
-                let lit = lit_arc_integral(cos_t * alpha.cos(), sin_t * alpha.sin(), power);
+                let mut lit = lit_arc_integral(cos_t * alpha.cos(), sin_t * alpha.sin(), power);
+                if upstream_loss > 0.0 {
+                    lit -= upstream_arc_loss(cos_t, sin_t, alpha, power, upstream_loss);
+                }
                 if lit <= 0.0 {
                     return;
                 }
@@ -503,6 +546,49 @@ pub fn sphere_term_responses(
             });
         }
     }
+}
+
+/// What the upstream loss takes from [`lit_arc_integral`] on the ring at arc angle α around the
+/// point at θ (`cos_t`, `sin_t`): `∫₀^2π max(μ, 0)^p · min(loss · max(−c, 0), 1) dβ` with
+/// `μ = cos θ cos α + sin θ sin α cos β` and `c = sin θ cos(α/2) cos β − cos θ sin(α/2)`, the
+/// cosine between the light's travel and the chord from the ring's point to the point
+/// (`(μ_q − μ_p)·r / d` with `d = 2r sin(α/2)`). c falls as β grows, so the loss lies on one
+/// arc `(β_c, β₀)`, integrated by 16-point Gauss–Legendre after `β = β₀ − (β₀ − β_c)·u²`
+/// (smooth where the lit arc ends).
+fn upstream_arc_loss(cos_t: f64, sin_t: f64, alpha: f64, p: f64, loss: f64) -> f64 {
+    let a = cos_t * alpha.cos();
+    let b = (sin_t * alpha.sin()).max(0.0);
+    if a + b <= 0.0 {
+        return 0.0;
+    }
+    let beta0 = if a >= b {
+        PI
+    } else {
+        (-a / b).clamp(-1.0, 1.0).acos()
+    };
+    let (half_sin, half_cos) = (0.5 * alpha).sin_cos();
+    let slope = sin_t * half_cos;
+    let offset = cos_t * half_sin;
+    // c < 0 where slope · cos β < offset.
+    let from = if offset >= slope {
+        0.0
+    } else if offset <= -slope {
+        return 0.0;
+    } else {
+        (offset / slope).acos()
+    };
+    if from >= beta0 {
+        return 0.0;
+    }
+    let span = beta0 - from;
+    let mut sum = 0.0;
+    for_each_node(&GAUSS_LEGENDRE_16, 0.0, 1.0, |u, w| {
+        let beta = beta0 - span * u * u;
+        let mu = (a + b * beta.cos()).max(0.0);
+        let against = (offset - slope * beta.cos()).max(0.0);
+        sum += w * mu.powf(p) * (loss * against).min(1.0) * 2.0 * span * u;
+    });
+    2.0 * sum
 }
 
 /// `∫₀^2π max(a + b·cos β, 0)^p dβ` for `b ≥ 0`: over the lit arc only, closed form for p = 1,
@@ -677,6 +763,21 @@ mod tests {
         radius_mm: f64,
         theta: f64,
     ) -> [f64; 3] {
+        brute_force_weighted(kernel, p, 0.0, radius_mm, theta)
+    }
+
+    /// The same with each source weighed by `1 − loss · max(−c, 0)`, c from the points' own
+    /// positions: the point at θ in the x–z plane, the light along +z, the source at arc α and
+    /// azimuth β (β = 0 toward the light).
+    fn brute_force_weighted(
+        kernel: impl Fn(f64) -> [f64; 3],
+        p: f64,
+        loss: f64,
+        radius_mm: f64,
+        theta: f64,
+    ) -> [f64; 3] {
+        let point = [theta.sin(), 0.0, theta.cos()];
+        let toward_light = [-theta.cos(), 0.0, theta.sin()];
         let (n_alpha, n_beta) = (20_000, 720);
         let mut out = [0.0; 3];
         // α on a square-root grid: fine near α = 0, where the short terms live.
@@ -691,7 +792,16 @@ mod tests {
             for j in 0..n_beta {
                 let beta = TAU * (j as f64 + 0.5) / n_beta as f64;
                 let mu = theta.cos() * alpha.cos() + theta.sin() * alpha.sin() * beta.cos();
-                h += mu.max(0.0).powf(p);
+                let mut weight = 1.0;
+                if loss > 0.0 && d > 0.0 {
+                    // (q − p)·l / |q − p| on the unit sphere, scaled by r / d.
+                    let q: [f64; 3] = std::array::from_fn(|k| {
+                        alpha.cos() * point[k] + alpha.sin() * beta.cos() * toward_light[k]
+                    });
+                    let c = (q[2] - point[2]) * radius_mm / d;
+                    weight = 1.0 - (loss * (-c).max(0.0)).min(1.0);
+                }
+                h += weight * mu.max(0.0).powf(p);
             }
             for c in 0..3 {
                 out[c] += r[c] * area * h;
@@ -731,9 +841,10 @@ mod tests {
             for theta_deg in [0.0f64, 60.0, 95.0, 130.0, 180.0] {
                 let theta = theta_deg.to_radians();
                 let fast = far.sphere_reflectance(1.0 / radius_mm, theta, &mut scratch);
-                let slow = brute_force_kernel(
+                let slow = brute_force_weighted(
                     |d| far.reflectance_per_mm2(d),
                     far.entry_cosine_power(),
+                    f64::from(UPSTREAM_LOSS),
                     radius_mm,
                     theta,
                 );
@@ -745,6 +856,67 @@ mod tests {
                         "r = {radius_mm}, θ = {theta_deg}°, channel {c}: {} vs {} (error {error:e})",
                         fast[c],
                         slow[c]
+                    );
+                }
+            }
+        }
+    }
+
+    /// The upstream loss changes nothing on a sphere's shadow side (every lit point lies
+    /// upstream of the point) or on a plane lit head-on, takes light on a sphere's lit side
+    /// (more with a larger loss), and agrees with a brute-force surface integral at any loss.
+    #[test]
+    fn the_upstream_loss_takes_light_only_from_points_upstream_of_their_sources() {
+        let lengths = [2.0, 8.0];
+        let (radius_mm, power) = (20.0, 0.85);
+        let responses = |theta_deg: f64, loss: f64| {
+            let mut out = [0.0; 2];
+            sphere_responses(
+                &lengths,
+                radius_mm,
+                theta_deg.to_radians(),
+                power,
+                loss,
+                &mut out,
+            );
+            out
+        };
+        for theta_deg in [95.0, 120.0, 160.0] {
+            assert_eq!(responses(theta_deg, 1.0), responses(theta_deg, 0.0));
+        }
+        let mut flat = [[0.0; 2]; 2];
+        for (out, loss) in flat.iter_mut().zip([0.0, 1.0]) {
+            sphere_responses(&lengths, 1e6, 0.0, power, loss, out);
+        }
+        for k in 0..2 {
+            assert!(
+                (flat[1][k] - flat[0][k]).abs() < 1e-5 * flat[0][k],
+                "{flat:?}"
+            );
+        }
+        for theta_deg in [0.0, 40.0, 80.0] {
+            let [none, some, more] = [0.0, 1.0, 2.0].map(|loss| responses(theta_deg, loss));
+            for k in 0..2 {
+                assert!(more[k] < some[k] && some[k] < none[k], "θ = {theta_deg}°");
+            }
+        }
+        for loss in [1.0, 2.0] {
+            for theta_deg in [30.0f64, 60.0, 85.0] {
+                let theta = theta_deg.to_radians();
+                let fast = responses(theta_deg, loss);
+                for (k, &ell) in lengths.iter().enumerate() {
+                    let slow = brute_force_weighted(
+                        |d| [(-d / ell).exp() / (TAU * ell * d.max(1e-12)); 3],
+                        power,
+                        loss,
+                        radius_mm,
+                        theta,
+                    )[0];
+                    let peak = responses(0.0, 0.0)[k];
+                    assert!(
+                        (fast[k] - slow).abs() < 1e-3 * peak,
+                        "loss {loss}, θ = {theta_deg}°, ℓ = {ell}: {} vs {slow}",
+                        fast[k]
                     );
                 }
             }

@@ -125,7 +125,7 @@ fn subsurface_gather_face(
                 let texel_mm = texel_width_per_depth
                     * select(distance_from_light, shadows.mm_per_world_unit, orthographic);
                 let tolerance = max(SUBSURFACE_AIR_TOLERANCE_MM, texel_mm);
-                share *= through_medium(ray, shape, q, tolerance);
+                share *= through_medium(ray, shape, q, tolerance) * upstream_weight(ray, shape, q, texel_mm);
                 sum += share * texel_sum.w * subsurface_kernel_value(distance(p, q));
             }
         }
@@ -159,6 +159,24 @@ fn through_medium(ray: vec3<f32>, shape: LocalShape, q: vec3<f32>, tolerance_mm:
         }
     }
     return 1.0 - smoothstep(tolerance_mm, 2.0 * tolerance_mm, ahead);
+}
+
+// The share of the far field from frame point q (a texel's mean, `texel_mm` across as the light
+// sees it) that reaches the point of `shape`: 1 − UPSTREAM_LOSS·max(−c, 0), c the cosine between
+// the light's travel (`ray`, light_ray at q) and q's direction to the point (cdrf-core's
+// diffusion::UPSTREAM_LOSS; F_sphere in the near field's table integrates the same). A texel's
+// points spread by texel_mm²/6 about their mean, and on a curved surface the mean lies inside
+// it by half that over the radius: read as it is, it would lie further down the light than the
+// surface it stands for, and nearer the point.
+fn upstream_weight(ray: vec3<f32>, shape: LocalShape, q: vec3<f32>, texel_mm: f32) -> f32 {
+    let spread_mm2 = texel_mm * texel_mm / 6.0;
+    var source = q;
+    if shape.curved {
+        source += normalize(q - shape.centre) * (0.5 * spread_mm2 / shape.radius_mm);
+    }
+    let to_point = shape.point - source;
+    let c = dot(to_point, ray) / sqrt(max(dot(to_point, to_point) + spread_mm2, 1e-12));
+    return max(1.0 - UPSTREAM_LOSS * max(-c, 0.0), 0.0);
 }
 
 // The gain on G on the shadow side of a body thinner along the light than the circle of the

@@ -68,6 +68,12 @@ pub fn wgsl_constants() -> String {
     wgsl.push_str(&format!(
         "const PENUMBRA_DISC_PER_WIDTH: f32 = {PENUMBRA_DISC_PER_WIDTH:?};\n"
     ));
+    // The gather's loss against the light's travel (cdrf-core's diffusion::UPSTREAM_LOSS, which
+    // F_sphere in the near field's table includes; gather.wgsl's upstream_weight).
+    wgsl.push_str(&format!(
+        "const UPSTREAM_LOSS: f32 = {:?};\n",
+        cdrf_core::diffusion::UPSTREAM_LOSS
+    ));
     // The view's azimuth (cdrf-core's azimuth module; tables.wgsl's view_azimuth).
     for (name, value) in [
         ("SHADOW_FLUX_GAIN", cdrf_core::azimuth::SHADOW_FLUX_GAIN),
