@@ -834,7 +834,7 @@ fn the_subsurface_gather_leaves_a_sphere_as_the_table_renders_it() {
     // is smaller, its irradiance falls by 1.9 × across it and its rays spread by up to 18°,
     // which the gather's upstream loss follows and F_sphere's parallel light does not, so what
     // the gather finds differs from F_sphere by more (bounds: mean, largest change over the
-    // peak; 1.8 % / 3.6 % before the upstream loss, 2.3 % / 6.9 % with it).
+    // peak; measured 2.3 % / 6.9 %).
     for (light, bounds) in [
         (
             Light::Directional(DirectionalLight {

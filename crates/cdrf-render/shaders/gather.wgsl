@@ -55,7 +55,7 @@ fn subsurface_gather(index: u32, shape: LocalShape) -> vec3<f32> {
 // weighs its texel at ρ (its texels) from the point by level_share(ρ) − level_share(2ρ)
 // (level 0: level_share(ρ); the coarsest: 1 − level_share(2ρ)), which sum to 1 at every
 // distance; and each texel by the share of its light that reaches the point through the
-// medium (through_medium).
+// medium (through_medium) and against the light's travel (upstream_weight).
 fn subsurface_gather_face(
     index: u32,
     face: u32,
