@@ -560,13 +560,8 @@ fn sphere_responses(
 fn upstream_arc_loss(cos_t: f64, sin_t: f64, alpha: f64, p: f64, loss: f64) -> f64 {
     let a = cos_t * alpha.cos();
     let b = (sin_t * alpha.sin()).max(0.0);
-    if a + b <= 0.0 {
+    let Some(beta0) = lit_arc_half_width(a, b) else {
         return 0.0;
-    }
-    let beta0 = if a >= b {
-        PI
-    } else {
-        (-a / b).clamp(-1.0, 1.0).acos()
     };
     let (half_sin, half_cos) = (0.5 * alpha).sin_cos();
     let slope = sin_t * half_cos;
@@ -593,19 +588,25 @@ fn upstream_arc_loss(cos_t: f64, sin_t: f64, alpha: f64, p: f64, loss: f64) -> f
     2.0 * sum
 }
 
+/// Half-width β₀ of the arc where `a + b·cos β > 0` (`b ≥ 0`): π when the whole ring is lit,
+/// `None` when none of it is.
+fn lit_arc_half_width(a: f64, b: f64) -> Option<f64> {
+    if a + b <= 0.0 {
+        None
+    } else if a >= b {
+        Some(PI)
+    } else {
+        Some((-a / b).clamp(-1.0, 1.0).acos())
+    }
+}
+
 /// `∫₀^2π max(a + b·cos β, 0)^p dβ` for `b ≥ 0`: over the lit arc only, closed form for p = 1,
 /// else 16-point Gauss–Legendre after `β = β₀(1 − u²)`, which makes the integrand smooth at the
 /// arc's end `β₀` (where it vanishes like `(β₀ − β)^p`).
 fn lit_arc_integral(a: f64, b: f64, p: f64) -> f64 {
     let b = b.max(0.0);
-    if a + b <= 0.0 {
+    let Some(beta0) = lit_arc_half_width(a, b) else {
         return 0.0;
-    }
-    // Half-width of the lit arc: π when the whole ring is lit.
-    let beta0 = if a >= b {
-        PI
-    } else {
-        (-a / b).clamp(-1.0, 1.0).acos()
     };
     if p == 1.0 {
         return 2.0 * (a * beta0 + b * beta0.sin());
