@@ -13,7 +13,8 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 # Some containers ship /dev/null as a regular file. Then what one process throws away there the
 # next one reads back: in CI a build script's discarded compiler error became the "source" that
 # cargo's target probe (`rustc -`, stdin from /dev/null) compiled, and `cargo test` failed before
-# building anything. Put the device back when we may; otherwise empty the file before every step.
+# building anything. Put the device back when we may; otherwise empty the file before every cargo
+# command.
 if [ ! -c /dev/null ] && [ "$(id -u)" -eq 0 ]; then
   dev_null_new="/dev/.null.$$"
   if mknod -m 666 "$dev_null_new" c 1 3 2>/dev/null && : >"$dev_null_new" 2>/dev/null; then
@@ -22,12 +23,15 @@ if [ ! -c /dev/null ] && [ "$(id -u)" -eq 0 ]; then
     rm -f "$dev_null_new"
   fi
 fi
-[ -c /dev/null ] || echo "warning: /dev/null is not a device here; emptying it before each step" >&2
+if [ ! -c /dev/null ]; then
+  echo "warning: /dev/null is not a device here; emptying it before every cargo command" >&2
+  cargo() {
+    : >/dev/null
+    command cargo "$@"
+  }
+fi
 
-section() {
-  [ -c /dev/null ] || : >/dev/null
-  printf '\n==> %s\n' "$*"
-}
+section() { printf '\n==> %s\n' "$*"; }
 
 if ! command -v cargo >/dev/null 2>&1; then
   echo "error: cargo not found. Install Rust 1.95 or newer (https://rustup.rs), then run $0 again." >&2
