@@ -4,9 +4,10 @@
 # On a fresh Debian/Ubuntu machine it first installs what is missing — Mesa's software Vulkan
 # driver (lavapipe) for the GPU tests, a virtual X server (xvfb, xauth) and the X libraries winit
 # loads for the viewer's windowed test, a C++ compiler for crates that build C++ — using sudo
-# only when not root. Then: format check, clippy with warnings as errors, every test (unit,
-# integration, CLI, doc tests), a publish dry run of the five crates, the docs build, and the
-# Bevy plugin's own workspace with the nightly toolchain.
+# only when not root; as root it also puts /dev/null back where a container made it a plain
+# file. Then: format check, clippy with warnings as errors, every test (unit, integration, CLI,
+# doc tests), a publish dry run of the five crates, the docs build, and the Bevy plugin's own
+# workspace with the nightly toolchain.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
