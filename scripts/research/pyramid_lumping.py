@@ -5,10 +5,11 @@ lit by a directional light: the lit surface is sampled finely, summed into the l
 (level 0 of N texels across the sphere, halved per level, as subsurface_pyramid.rs builds it),
 and each level's texels are weighted as `level_share` does. It prints, for a point at each θ,
 the gathered sum over the exact surface integral: as the shader reads it (the texel's mean),
-and with a second-order correction from each texel's spread (its trace alone, and its full
-covariance), which the shader does not have.
+and with a second-order correction from each texel's spread (its trace alone, its full
+covariance, and its width²/12 across the light with its depth variance along it), which the
+shader does not have.
 
-  python pyramid_lumping.py [--ell 5] [--resolution 128] [--levels 5] [--sub 16] [--reach 3]
+  python pyramid_lumping.py [--radius 35] [--ell 5] [--resolution 128] [--levels 5] [--sub 16] [--reach 3]
 
 One exponential term R(d) = exp(-d/ell) / (2 pi ell d) stands for R_far; the entry factor is
 mu^(p-1) per unit of the light's area (p = 0.85, the bundled fit's).
@@ -69,12 +70,12 @@ pyramid = [[reduce(m, a.sub) for m in moments]]
 for _ in range(1, a.levels):
     pyramid.append([reduce(m, 2) for m in pyramid[-1]])
 
-print("theta  mean  trace  covariance   (gathered / exact)")
+print("theta  mean  trace  covariance  depth   (gathered / exact)")
 for theta in (60, 85, 92, 95, 100, 110, 130, 160):
     t = np.radians(theta)
     p = np.array([R * np.sin(t), 0.0, -R * np.cos(t)])
     exact = (flux * kernel(np.sqrt((X - p[0]) ** 2 + (Y - p[1]) ** 2 + (Z - p[2]) ** 2))).sum()
-    sums = np.zeros(3)
+    sums = np.zeros(4)
     for level, m in enumerate(pyramid):
         w = m[0]
         size = w.shape[0]
@@ -103,6 +104,15 @@ for theta in (60, 85, 92, 95, 100, 110, 130, 160):
         # Second order in the texel's spread: R'' along the direction to the point, R'/d across.
         with_trace = at_mean + 0.5 * (kernel_d2(d) * trace / 3 + kernel_d1(d) / d * 2 * trace / 3)
         with_cov = at_mean + 0.5 * (kernel_d2(d) * radial + kernel_d1(d) / d * (trace - radial))
-        for k, value in enumerate((at_mean, with_trace, with_cov)):
+        # Across the light the texel's width²/12 per axis, along it the depth variance.
+        split = np.zeros_like(cov)
+        split[..., 0, 0] = split[..., 1, 1] = texel_mm**2 / 12
+        split[..., 2, 2] = cov[..., 2, 2]
+        trace_split = np.trace(split, axis1=-2, axis2=-1)
+        radial_split = np.einsum("...i,...ij,...j", along, split, along)
+        with_depth = at_mean + 0.5 * (
+            kernel_d2(d) * radial_split + kernel_d1(d) / d * (trace_split - radial_split)
+        )
+        for k, value in enumerate((at_mean, with_trace, with_cov, with_depth)):
             sums[k] += (share * w * value)[use].sum()
     print(f"{theta:5d}  " + "  ".join(f"{s / exact:.3f}" for s in sums))
