@@ -19,7 +19,7 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 if [ ! -c /dev/null ] && [ "$(id -u)" -eq 0 ]; then
   dev_null_new="/dev/.null.$$"
   if mknod -m 666 "$dev_null_new" c 1 3 2>/dev/null && : >"$dev_null_new" 2>/dev/null; then
-    mv -f "$dev_null_new" /dev/null
+    mv -f "$dev_null_new" /dev/null 2>/dev/null || rm -f "$dev_null_new"
   else
     rm -f "$dev_null_new"
   fi
