@@ -5,11 +5,14 @@ lit by a directional light: the lit surface is sampled finely, summed into the l
 (level 0 of N texels across the sphere, halved per level, as subsurface_pyramid.rs builds it),
 and each level's texels are weighted as `level_share` does. It prints, for a point at each θ,
 the gathered sum over the exact surface integral: as the shader reads it (the texel's mean),
-and with a second-order correction from each texel's spread (its trace alone, its full
-covariance, and its width²/12 across the light with its depth variance along it), which the
-shader does not have.
+with a second-order correction from each texel's spread (its trace alone, its full
+covariance, and its width²/12 across the light with its depth variance along it), with that
+spread read at sigma points (`sigma`), and as gather.wgsl's spread_kernel_value reads it (`shader`:
+two reads at d ± s, the depth variance from the trace as the pyramid's Φ·|position|² gives it,
+bounded by BOUND × the reads' geometric mean; twelfth pass).
 
-  python pyramid_lumping.py [--radius 35] [--ell 5] [--resolution 128] [--levels 5] [--sub 16] [--reach 3]
+  python pyramid_lumping.py [--radius 35] [--ell 5] [--resolution 128] [--levels 5] [--sub 16]
+      [--reach 3] [--clamp 0.4] [--bound 1.15] [--from-level 0] [--thetas 60,85,...]
 
 One exponential term R(d) = exp(-d/ell) / (2 pi ell d) stands for R_far; the entry factor is
 mu^(p-1) per unit of the light's area (p = 0.85, the bundled fit's).
@@ -25,6 +28,10 @@ ap.add_argument("--resolution", type=int, default=128, help="level 0's texels ac
 ap.add_argument("--levels", type=int, default=5)
 ap.add_argument("--sub", type=int, default=16, help="surface samples per level-0 texel and axis")
 ap.add_argument("--reach", type=float, default=3.0, help="SUBSURFACE_LEVEL_REACH, texels")
+ap.add_argument("--clamp", type=float, default=0.4, help="the sigma points' spread, at most this x d")
+ap.add_argument("--bound", type=float, default=1.15, help="the shader's bound on its two reads")
+ap.add_argument("--from-level", type=int, default=0, help="the shader's spread read from this level on")
+ap.add_argument("--thetas", default="60,85,92,95,100,110,130,160", help="the points' theta, deg")
 a = ap.parse_args()
 
 R, ell = a.radius, a.ell
@@ -70,12 +77,12 @@ pyramid = [[reduce(m, a.sub) for m in moments]]
 for _ in range(1, a.levels):
     pyramid.append([reduce(m, 2) for m in pyramid[-1]])
 
-print("theta  mean  trace  covariance  depth   (gathered / exact)")
-for theta in (60, 85, 92, 95, 100, 110, 130, 160):
+print("theta  mean  trace  covariance  depth  sigma  shader   (gathered / exact)")
+for theta in (int(t) for t in a.thetas.split(",")):
     t = np.radians(theta)
     p = np.array([R * np.sin(t), 0.0, -R * np.cos(t)])
     exact = (flux * kernel(np.sqrt((X - p[0]) ** 2 + (Y - p[1]) ** 2 + (Z - p[2]) ** 2))).sum()
-    sums = np.zeros(4)
+    sums = np.zeros(6)
     for level, m in enumerate(pyramid):
         w = m[0]
         size = w.shape[0]
@@ -113,6 +120,23 @@ for theta in (60, 85, 92, 95, 100, 110, 130, 160):
         with_depth = at_mean + 0.5 * (
             kernel_d2(d) * radial_split + kernel_d1(d) / d * (trace_split - radial_split)
         )
-        for k, value in enumerate((at_mean, with_trace, with_cov, with_depth)):
+        # Sigma points (implementable): the depth variance from the trace less the lateral
+        # w^2/6, the radial spread s read at d +- s (s at most CLAMP d), the lateral one at
+        # sqrt(d^2 + t).
+        depth_var = np.maximum(trace - texel_mm**2 / 6, 0.0)
+        c = np.abs(along[..., 2])
+        radial_s = texel_mm**2 / 12 * (1 - c * c) + depth_var * c * c
+        lateral_t = texel_mm**2 / 6 + depth_var - radial_s
+        sig = np.minimum(np.sqrt(radial_s), a.clamp * d)
+        with_sigma = 0.5 * (kernel(d + sig) + kernel(d - sig)) + kernel(np.sqrt(d * d + lateral_t)) - at_mean
+        # The shader's two reads: d +- s, s at least 0.05 d, the lateral spread through the
+        # slope between them, bounded by BOUND x their geometric mean.
+        s2 = np.maximum(sig, 0.05 * d)
+        kp, km = kernel(d + s2), kernel(d - s2)
+        with_two = np.maximum(0.5 * (kp + km) + (kp - km) / (2 * s2) * (np.sqrt(d * d + lateral_t) - d), 0)
+        with_two = np.minimum(with_two, a.bound * np.sqrt(kp * km))
+        if level < a.from_level:
+            with_two = at_mean
+        for k, value in enumerate((at_mean, with_trace, with_cov, with_depth, with_sigma, with_two)):
             sums[k] += (share * w * value)[use].sum()
     print(f"{theta:5d}  " + "  ".join(f"{s / exact:.3f}" for s in sums))
