@@ -134,10 +134,10 @@ for theta in (int(t) for t in a.thetas.split(",")):
         # slope between them, bounded by BOUND x their geometric mean.
         s2 = np.maximum(sig, 0.05 * d)
         kp, km = kernel(d + s2), kernel(d - s2)
-        with_two = np.maximum(0.5 * (kp + km) + (kp - km) / (2 * s2) * (np.sqrt(d * d + lateral_t) - d), 0)
-        with_two = np.minimum(with_two, a.bound * np.sqrt(kp * km))
+        with_shader = np.maximum(0.5 * (kp + km) + (kp - km) / (2 * s2) * (np.sqrt(d * d + lateral_t) - d), 0)
+        with_shader = np.minimum(with_shader, a.bound * np.sqrt(kp * km))
         if level < a.from_level:
-            with_two = at_mean
-        for k, value in enumerate((at_mean, with_trace, with_cov, with_depth, with_sigma, with_two)):
+            with_shader = at_mean
+        for k, value in enumerate((at_mean, with_trace, with_cov, with_depth, with_sigma, with_shader)):
             sums[k] += (share * w * value)[use].sum()
     print(f"{theta:5d}  " + "  ".join(f"{s / exact:.3f}" for s in sums))

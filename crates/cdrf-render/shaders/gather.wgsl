@@ -98,8 +98,8 @@ fn subsurface_gather_face(
             var row_end = count;
             if !coarsest {
                 let y = f32(first.y + dy) + 0.5 - centre.y;
-                let reach = 2.0 * SUBSURFACE_LEVEL_REACH;
-                let half_width = sqrt(max(reach * reach - y * y, 0.0));
+                let radius = 2.0 * SUBSURFACE_LEVEL_REACH;
+                let half_width = sqrt(max(radius * radius - y * y, 0.0));
                 row_first = max(i32(ceil(centre.x - half_width - 0.5)) - first.x, 0);
                 row_end = min(i32(floor(centre.x + half_width - 0.5)) - first.x + 1, count);
             }
