@@ -4,13 +4,13 @@
 lit by a directional light: the lit surface is sampled finely, summed into the light's pyramid
 (level 0 of N texels across the sphere, halved per level, as subsurface_pyramid.rs builds it),
 and each level's texels are weighted as `level_share` does. It prints, for a point at each θ,
-the gathered sum over the exact surface integral: as the shader reads it (the texel's mean),
-with a second-order correction from each texel's spread (its trace alone, its full
-covariance, and its width²/12 across the light with its depth variance along it), with that
-spread read at sigma points (`sigma`), and as the unlanded spread_kernel_value reads it
-(`shader`, docs/research/patches/gather-spread.patch: two reads at d ± s, the depth variance
-from the trace as its pyramid's Φ·|position|² gives it, bounded by BOUND × the reads'
-geometric mean; twelfth pass).
+the gathered sum over the exact surface integral: read at the texel's mean (as the shader did
+until session 21), with a second-order correction from each texel's spread (its trace alone,
+its full covariance, and its width²/12 across the light with its depth variance along it),
+with that spread read at sigma points (`sigma`), and as gather.wgsl's spread_kernel_value
+reads it (`shader`: two reads at d ± s, the depth variance from the trace as the pyramid's
+Φ·|position|² gives it, bounded by BOUND × the reads' geometric mean; docs/research/
+thick-bodies.md, twelfth and thirteenth passes).
 
   python pyramid_lumping.py [--radius 35] [--ell 5] [--resolution 128] [--levels 5] [--sub 16]
       [--reach 3] [--clamp 0.4] [--bound 1.15] [--from-level 0] [--thetas 60,85,...]

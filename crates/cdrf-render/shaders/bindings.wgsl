@@ -21,3 +21,6 @@
 // the light's irradiance or intensity), summed over the level-0 texels it covers; one layer
 // per face of each shadowed light.
 @group(3) @binding(2) var subsurface_pyramid: texture_2d_array<f32>;
+// Beside it, per texel Φ·|position|² (mm⁴), summed alike: the spread of a texel's light about
+// its mean position.
+@group(3) @binding(3) var subsurface_squares: texture_2d_array<f32>;

@@ -21,6 +21,34 @@ fn subsurface_kernel_value(distance_mm: f32) -> vec3<f32> {
     return mix(a, b, clamp(x - f32(i), 0.0, 1.0));
 }
 
+// R_far averaged over a texel's light rather than read at its mean (`to_point`: from the mean to
+// the point): the light spreads `across_mm2` per axis across the light (the texel's width²/12)
+// and `depth_mm2` along it (a surface turning from the light spans depths). R_far is convex, so
+// the mean alone reads too little: on a sphere's shadow side about 0.9 of the light
+// (docs/research/thick-bodies.md). Read at d ± s, s the spread along the direction to the
+// point, at least 5 % and at most 40 % of d (the expansion fails where the spread is not small
+// against the distance), and the spread across it through the slope between the two reads; at
+// most SPREAD_BOUND × the two reads' geometric mean (≈ R_far(d) for an exponential: where a
+// texel spreads further than about half the kernel's length the expansion is no guide).
+const SPREAD_BOUND: f32 = 1.15;
+fn spread_kernel_value(
+    to_point: vec3<f32>,
+    ray: vec3<f32>,
+    across_mm2: f32,
+    depth_mm2: f32,
+) -> vec3<f32> {
+    let d = length(to_point);
+    let c = dot(to_point, ray) / max(d, 1e-6);
+    let radial_mm2 = mix(across_mm2, depth_mm2, c * c);
+    let lateral_mm2 = 2.0 * across_mm2 + depth_mm2 - radial_mm2;
+    let s = clamp(sqrt(radial_mm2), 0.05 * d, 0.4 * d) + 1e-6;
+    let farther = subsurface_kernel_value(d + s);
+    let nearer = subsurface_kernel_value(d - s);
+    let slope = (farther - nearer) / (2.0 * s);
+    let spread = 0.5 * (farther + nearer) + slope * (sqrt(d * d + lateral_mm2) - d);
+    return min(max(spread, vec3<f32>(0.0)), SPREAD_BOUND * sqrt(farther * nearer));
+}
+
 // The share of the light level L keeps, at ρ of its texels from the point: 1 within
 // SUBSURFACE_LEVEL_REACH texels, 0 beyond twice that, smooth between.
 const SUBSURFACE_LEVEL_REACH: f32 = 3.0;
@@ -64,81 +92,101 @@ fn subsurface_gather_face(
     near: bool,
 ) -> vec3<f32> {
     let layer = i32(shadows.lights[index].first_layer + face);
+    var sum = vec3<f32>(0.0);
+    for (var level = 0u; level < shadows.subsurface_levels; level++) {
+        sum += subsurface_gather_level(index, layer, shape, uv, near, level);
+    }
+    return sum;
+}
+
+// Level `level` of one face's pyramid (subsurface_gather_face).
+fn subsurface_gather_level(
+    index: u32,
+    layer: i32,
+    shape: LocalShape,
+    uv: vec2<f32>,
+    near: bool,
+    level: u32,
+) -> vec3<f32> {
     let p = shape.point;
     let levels = shadows.subsurface_levels;
-    // The light's projection, read once: per texel, both projections' rays and texel widths
-    // are computed and one selected (software rasterisers run both sides of a branch, and
-    // read a uniform's fields inside the loop per invocation).
+    // The light's projection, read once per level: per texel, both projections' rays and
+    // texel widths are computed and one selected (software rasterisers run both sides of a
+    // branch, and read a uniform's fields inside the loop per invocation).
     let orthographic = shadows.lights[index].projection == SHADOW_ORTHOGRAPHIC;
     let half_extent = shadows.lights[index].half_extent;
     var sum = vec3<f32>(0.0);
-    for (var level = 0u; level < levels; level++) {
-        let resolution = shadows.subsurface_resolution >> level;
-        let size = i32(resolution);
-        // texel_width_of at this level: this times the depth (perspective) or the frame's
-        // unit (orthographic).
-        let texel_width_per_depth = 2.0 * half_extent / f32(resolution);
-        let centre = uv * f32(size);
-        let coarsest = level + 1u == levels;
-        // The texels whose centres lie within 2·SUBSURFACE_LEVEL_REACH of the point along each
-        // axis (any other has ρ at least that, and share 0): 4·REACH per side.
-        var first = vec2<i32>(floor(centre - 2.0 * SUBSURFACE_LEVEL_REACH - 0.5)) + 1;
-        var count = i32(4.0 * SUBSURFACE_LEVEL_REACH);
-        if coarsest {
-            first = vec2<i32>(0);
-            count = size;
-        } else if !near || any(first + count <= vec2<i32>(0)) || any(first >= vec2<i32>(size)) {
-            // No texel of this level's window lies on the map.
-            continue;
+    let resolution = shadows.subsurface_resolution >> level;
+    let size = i32(resolution);
+    // texel_width_of at this level: this times the depth (perspective) or the frame's
+    // unit (orthographic).
+    let texel_width_per_depth = 2.0 * half_extent / f32(resolution);
+    let centre = uv * f32(size);
+    let coarsest = level + 1u == levels;
+    // The texels whose centres lie within 2·SUBSURFACE_LEVEL_REACH of the point along each
+    // axis (any other has ρ at least that, and share 0): 4·REACH per side.
+    var first = vec2<i32>(floor(centre - 2.0 * SUBSURFACE_LEVEL_REACH - 0.5)) + 1;
+    var count = i32(4.0 * SUBSURFACE_LEVEL_REACH);
+    if coarsest {
+        first = vec2<i32>(0);
+        count = size;
+    } else if !near || any(first + count <= vec2<i32>(0)) || any(first >= vec2<i32>(size)) {
+        // No texel of this level's window lies on the map.
+        return sum;
+    }
+    for (var dy = 0; dy < count; dy++) {
+        // Below the coarsest level, only the row's texels within 2·REACH of the point (the
+        // rest have share 0): a fifth of the window fewer.
+        var row_first = 0;
+        var row_end = count;
+        if !coarsest {
+            let y = f32(first.y + dy) + 0.5 - centre.y;
+            let radius = 2.0 * SUBSURFACE_LEVEL_REACH;
+            let half_width = sqrt(max(radius * radius - y * y, 0.0));
+            row_first = max(i32(ceil(centre.x - half_width - 0.5)) - first.x, 0);
+            row_end = min(i32(floor(centre.x + half_width - 0.5)) - first.x + 1, count);
         }
-        for (var dy = 0; dy < count; dy++) {
-            // Below the coarsest level, only the row's texels within 2·REACH of the point (the
-            // rest have share 0): a fifth of the window fewer.
-            var row_first = 0;
-            var row_end = count;
-            if !coarsest {
-                let y = f32(first.y + dy) + 0.5 - centre.y;
-                let radius = 2.0 * SUBSURFACE_LEVEL_REACH;
-                let half_width = sqrt(max(radius * radius - y * y, 0.0));
-                row_first = max(i32(ceil(centre.x - half_width - 0.5)) - first.x, 0);
-                row_end = min(i32(floor(centre.x + half_width - 0.5)) - first.x + 1, count);
+        for (var dx = row_first; dx < row_end; dx++) {
+            let texel = first + vec2<i32>(dx, dy);
+            if any(texel < vec2<i32>(0)) || any(texel >= vec2<i32>(size)) {
+                continue;
             }
-            for (var dx = row_first; dx < row_end; dx++) {
-                let texel = first + vec2<i32>(dx, dy);
-                if any(texel < vec2<i32>(0)) || any(texel >= vec2<i32>(size)) {
-                    continue;
+            var share = 1.0;
+            if near {
+                let rho = length(vec2<f32>(texel) + 0.5 - centre);
+                if level > 0u {
+                    share -= level_share(2.0 * rho);
                 }
-                var share = 1.0;
-                if near {
-                    let rho = length(vec2<f32>(texel) + 0.5 - centre);
-                    if level > 0u {
-                        share -= level_share(2.0 * rho);
-                    }
-                    if !coarsest {
-                        share -= 1.0 - level_share(rho);
-                    }
+                if !coarsest {
+                    share -= 1.0 - level_share(rho);
                 }
-                if share <= 0.0 {
-                    continue;
-                }
-                let texel_sum = textureLoad(subsurface_pyramid, texel, layer, i32(level));
-                if texel_sum.w <= 0.0 {
-                    continue;
-                }
-                // The texel's flux at its mean position.
-                let q = texel_sum.xyz / texel_sum.w;
-                let distance_from_light = length(q);
-                let ray = select(
-                    q / max(distance_from_light, 1e-6),
-                    vec3<f32>(0.0, 0.0, 1.0),
-                    orthographic,
-                );
-                let texel_mm = texel_width_per_depth
-                    * select(distance_from_light, shadows.mm_per_world_unit, orthographic);
-                let tolerance = max(SUBSURFACE_AIR_TOLERANCE_MM, texel_mm);
-                share *= through_medium(ray, shape, q, tolerance) * upstream_weight(ray, shape, q, texel_mm);
-                sum += share * texel_sum.w * subsurface_kernel_value(distance(p, q));
             }
+            if share <= 0.0 {
+                continue;
+            }
+            let texel_sum = textureLoad(subsurface_pyramid, texel, layer, i32(level));
+            if texel_sum.w <= 0.0 {
+                continue;
+            }
+            // The texel's flux at its mean position.
+            let q = texel_sum.xyz / texel_sum.w;
+            let distance_from_light = length(q);
+            let ray = select(
+                q / max(distance_from_light, 1e-6),
+                vec3<f32>(0.0, 0.0, 1.0),
+                orthographic,
+            );
+            let texel_mm = texel_width_per_depth
+                * select(distance_from_light, shadows.mm_per_world_unit, orthographic);
+            let tolerance = max(SUBSURFACE_AIR_TOLERANCE_MM, texel_mm);
+            share *= through_medium(ray, shape, q, tolerance)
+                * upstream_weight(ray, shape, q, texel_mm);
+            // How far the texel's light spreads along the light about q: the spread of
+            // Φ·|position|² less the texel's width²/6 across it.
+            let square = textureLoad(subsurface_squares, texel, layer, i32(level)).x;
+            let across_mm2 = texel_mm * texel_mm / 12.0;
+            let depth_mm2 = max(square / texel_sum.w - dot(q, q) - 2.0 * across_mm2, 0.0);
+            sum += share * texel_sum.w * spread_kernel_value(p - q, ray, across_mm2, depth_mm2);
         }
     }
     return sum;
@@ -203,7 +251,7 @@ fn upstream_weight(ray: vec3<f32>, shape: LocalShape, q: vec3<f32>, texel_mm: f3
 // along the light on a convex body reads a quarter of the mean. Fitted to the blob, the
 // capsule and Skin1's blob lit from behind, the side-lit capsule, the torus and knot view 2
 // (docs/research/thick-bodies.md).
-const CONFINEMENT_GAIN: f32 = 1.0;
+const CONFINEMENT_GAIN: f32 = 0.85;
 const CONFINEMENT_THICKNESS_LENGTHS: f32 = 2.0;
 const CONFINEMENT_TOLERANCE_MM: f32 = 1.0;
 // n · the light's ray (−cos θ) where the gain is whole: θ ≈ 115°.

@@ -69,17 +69,29 @@ fn lit_texel(in: LightViewOut, resolution: u32) -> LitTexel {
     return texel;
 }
 
-// The subsurface map pass: level 0 of the pyramid, Φ·position and Φ per texel, Φ = A · μ^(p−1)
-// (A: texel_light_area, μ^p the entry factor, 1/μ the surface a texel covers). Materials
-// without a diffusion profile (Lambert, the Gaussian CDRF) occlude but let no light in.
+// Level 0 of the subsurface pyramid's two textures.
+struct SubsurfaceTexel {
+    // Φ·position and Φ.
+    @location(0) sum: vec4<f32>,
+    // Φ·|position|².
+    @location(1) square: f32,
+}
+
+// The subsurface map pass: level 0 of the pyramid, Φ·position, Φ and Φ·|position|² per texel,
+// Φ = A · μ^(p−1) (A: texel_light_area, μ^p the entry factor, 1/μ the surface a texel covers).
+// Materials without a diffusion profile (Lambert, the Gaussian CDRF) occlude but let no light
+// in.
 @fragment
-fn fs_subsurface_map(in: LightViewOut) -> @location(0) vec4<f32> {
+fn fs_subsurface_map(in: LightViewOut) -> SubsurfaceTexel {
+    var out: SubsurfaceTexel;
     if !(material.subsurface_reach_mm > 0.0) {
-        return vec4<f32>(0.0);
+        return out;
     }
     let texel = lit_texel(in, shadows.subsurface_resolution);
     // μ at least 0.1 (a silhouette texel's surface is a guess).
     let mu = max(texel.cos_theta, 0.1);
     let flux = texel.area * pow(mu, material.subsurface_entry_cosine_power - 1.0);
-    return vec4<f32>(in.light_position_mm * flux, flux);
+    out.sum = vec4<f32>(in.light_position_mm * flux, flux);
+    out.square = dot(in.light_position_mm, in.light_position_mm) * flux;
+    return out;
 }

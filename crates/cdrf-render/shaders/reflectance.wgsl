@@ -75,10 +75,10 @@ fn light_share(
     let shadowed = LIGHT_MAPS && index < shadows.light_count;
     var f: vec3<f32>;
     if SUBSURFACE && (MODEL == MODEL_MEASURED || MODEL == MODEL_GAUSSIAN_LUT) {
-        // With the gather on this light, without the far field the table holds through the
-        // osculating sphere (the gather brings it from the surface that is there). One read
-        // either way: in a branch, software rasterisers pay for both.
-        f = table_value(curvature_per_mm, theta, shadowed && gathers_subsurface());
+        // With the gather on this light, the far field the table holds through the osculating
+        // sphere is taken out of G per vertex (sphere_far_field; the gather brings it from the
+        // surface that is there).
+        f = table_value(curvature_per_mm, theta, false);
     } else {
         f = local_value(curvature_per_mm, cos_theta, theta);
     }

@@ -94,6 +94,27 @@ fn shadow_shape_curvature_per_mm(mean_per_mm: f32, along_light_per_mm: f32) -> f
     return max(min(mean_per_mm, along_light_per_mm), 0.25 * mean_per_mm);
 }
 
+// F_sphere, the far field the table holds (f − its near field), in G's units (per unit of the
+// light's strength): taken out of G here rather than out of f per pixel, so that G and the
+// far field it replaces are interpolated alike and cancel on a sphere.
+fn sphere_far_field(
+    index: u32,
+    world_position: vec3<f32>,
+    normal: vec3<f32>,
+    curvature_per_mm: f32,
+) -> vec3<f32> {
+    if !(MODEL == MODEL_MEASURED || MODEL == MODEL_GAUSSIAN_LUT) {
+        return vec3<f32>(0.0);
+    }
+    let light = frame.lights[index];
+    let incidence = light_incidence(light, world_position);
+    let theta = angle(dot(normal, incidence.to_light));
+    let far = table_value(curvature_per_mm, theta, false)
+        - table_value(curvature_per_mm, theta, true);
+    let strength = light_strength(light);
+    return select(vec3<f32>(0.0), far * incidence.irradiance / strength, strength > vec3<f32>(0.0));
+}
+
 // The per-vertex terms of shadowed light `index`: visibility and T(d, μ) from the shadow map,
 // or with the subsurface gather G (where V < 1 scaled by √s at the mean curvature) instead of T.
 fn vertex_non_local(
@@ -135,6 +156,8 @@ fn vertex_non_local(
             dot(shape.normal, light_ray(index, shape.point)),
             shape_curvature_per_mm,
         );
+        terms.gather -= sphere_far_field(index, world_position, normal, light_curvature_per_mm)
+            * terms.visibility;
     }
     return terms;
 }

@@ -339,8 +339,9 @@ impl MaterialFactory {
         uniforms.view_curvature_per_mm = [view_layers.min_per_mm, view_layers.max_per_mm];
         uniforms.view_layers = view_layers.count as f32;
         // What pipelines that may gather read in the LUT's place: its rows, then the rows of
-        // its near field f − F_sphere (the LUT again without a diffusion profile), so a light
-        // takes one read whichever it needs; then the flow ℓ·(−∂ ln f/∂θ) of the view's azimuth.
+        // its near field f − F_sphere (the LUT again without a diffusion profile; the vertex
+        // terms read both to take F_sphere out of the gather); then the flow ℓ·(−∂ ln f/∂θ) of
+        // the view's azimuth.
         let near_texture = match lut {
             Some(lut) => {
                 let mut rows = lut.radiance().to_vec();

@@ -11,7 +11,7 @@ use crate::constants::{COMPUTE_WORKGROUP_SIZE, Model};
 use crate::error::PrepareError;
 use crate::gpu_types::{GpuDraw, GpuVertex, GpuVertexTerms, uniform_layout_entry};
 use crate::passes::interreflection::InterreflectionPipelines;
-use crate::passes::subsurface_pyramid::SUBSURFACE_FORMAT;
+use crate::passes::subsurface_pyramid::SUBSURFACE_FORMATS;
 use crate::shaders::{INTERREFLECTION, LIGHT_VIEW, SHADING, Shader, VERTEX_TERMS};
 use crate::target::{LutFiltering, Options, TargetDesc};
 
@@ -321,13 +321,13 @@ impl Pipelines {
         device: &wgpu::Device,
     ) -> Result<(), PrepareError> {
         if self.subsurface_map.is_none() {
-            let target = Some(color_target(SUBSURFACE_FORMAT));
+            let targets = SUBSURFACE_FORMATS.map(|format| Some(color_target(format)));
             let pipeline = self.light_view_pipeline(
                 device,
                 "cdrf subsurface map pipeline",
                 "fs_subsurface_map",
                 &[],
-                &[target],
+                &targets,
             )?;
             self.subsurface_map = Some(pipeline);
         }
@@ -351,7 +351,7 @@ impl Pipelines {
                 .iter()
                 .flatten()
                 .next()
-                .map_or(SUBSURFACE_FORMAT, |t| t.format);
+                .map_or(SUBSURFACE_FORMATS[0], |t| t.format);
             TargetDesc::new(format)
         };
         if let Some(message) = &self.shader_error {

@@ -195,7 +195,7 @@ impl MapTextures {
             resolution,
             layer_count,
         );
-        let group = |pyramid: &wgpu::TextureView| {
+        let group = |pyramid: &[wgpu::TextureView; 2]| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("cdrf shadows"),
                 layout,
@@ -210,13 +210,17 @@ impl MapTextures {
                     },
                     wgpu::BindGroupEntry {
                         binding: 2,
-                        resource: wgpu::BindingResource::TextureView(pyramid),
+                        resource: wgpu::BindingResource::TextureView(&pyramid[0]),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: wgpu::BindingResource::TextureView(&pyramid[1]),
                     },
                 ],
             })
         };
-        let bind_group = group(&subsurface.array);
-        let light_view_bind_group = group(&blank_pyramid.array);
+        let bind_group = group(&subsurface.arrays);
+        let light_view_bind_group = group(&blank_pyramid.arrays);
         Self {
             resolution,
             layers,
@@ -253,6 +257,17 @@ impl LightMaps {
     /// `draw_layout`: the shading pass's draw bind group layout (group 2), reused by the
     /// shadow pass.
     pub(crate) fn new(device: &wgpu::Device, draw_layout: &wgpu::BindGroupLayout) -> Self {
+        // The subsurface pyramid's textures: gathered per vertex, by the vertex terms pass.
+        let pyramid_entry = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2Array,
+                multisampled: false,
+            },
+            count: None,
+        };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf shadows layout"),
             entries: &[
@@ -269,17 +284,8 @@ impl LightMaps {
                     },
                     count: None,
                 },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    // Gathered per vertex, by the vertex terms pass.
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+                pyramid_entry(2),
+                pyramid_entry(3),
             ],
         });
         let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
@@ -368,13 +374,13 @@ impl LightMaps {
             .record(&mut encoder, &maps.layers, &faces, casters, bindings.draws);
         if let Some(pipeline) = bindings.subsurface_pipeline {
             for (layer, face) in faces.iter().enumerate() {
-                let Some(target) = maps.subsurface.level0_target(layer) else {
+                let Some(targets) = maps.subsurface.level0_targets(layer) else {
                     break;
                 };
                 record_light_view(
                     &mut encoder,
                     "cdrf subsurface map",
-                    target,
+                    &targets,
                     &maps.subsurface.depth,
                     face.instance(),
                     casters,
@@ -458,7 +464,7 @@ impl LightMaps {
 fn record_light_view(
     encoder: &mut wgpu::CommandEncoder,
     label: &'static str,
-    target: wgpu::RenderPassColorAttachment<'_>,
+    targets: &[Option<wgpu::RenderPassColorAttachment<'_>>],
     depth: &wgpu::TextureView,
     instance: u32,
     casters: &[ShadowCaster<'_>],
@@ -468,7 +474,7 @@ fn record_light_view(
 ) {
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(label),
-        color_attachments: &[Some(target)],
+        color_attachments: targets,
         depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
             view: depth,
             depth_ops: Some(wgpu::Operations {

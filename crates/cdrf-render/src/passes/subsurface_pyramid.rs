@@ -1,12 +1,17 @@
 //! The subsurface pyramid: per face of a shadowed light, the light entering the lit surface as
 //! the light sees it (level 0, rendered by the light-map pass with `fs_subsurface_map`) and
 //! each further level the 2 × 2 sums of the one below, which the subsurface gather reads
-//! coarser with distance.
+//! coarser with distance. Two textures: Φ·position and Φ, and Φ·|position|², whose spread
+//! about the mean position the gather reads the kernel across (a texel's light is not all at
+//! its mean).
 
 use crate::shaders::subsurface_reduce_shader_source;
 
-/// The pyramid's format: Φ·position (mm³) and Φ (mm²) need f32.
-pub(crate) const SUBSURFACE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// The pyramid's formats: Φ·position (mm³) and Φ (mm²), and Φ·|position|² (mm⁴); f32 all.
+pub(crate) const SUBSURFACE_FORMATS: [wgpu::TextureFormat; 2] = [
+    wgpu::TextureFormat::Rgba32Float,
+    wgpu::TextureFormat::R32Float,
+];
 /// The pyramid's coarsest level, texels per side (the gather reads it whole).
 const SUBSURFACE_COARSEST: u32 = 8;
 /// Texels of level 0 across the cut ℓ_c (the kernel rises over ℓ_c; a sum over texels this
@@ -17,7 +22,7 @@ const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 /// The reduction of one level into the next: a full-screen triangle per level.
 pub(crate) struct SubsurfaceReduce {
-    /// Its bind group's layout: the finer level, read texel by texel.
+    /// Its bind group's layout: the finer level's two textures, read texel by texel.
     layout: wgpu::BindGroupLayout,
     pipeline: wgpu::RenderPipeline,
 }
@@ -26,8 +31,8 @@ impl SubsurfaceReduce {
     pub(crate) fn new(device: &wgpu::Device) -> Self {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cdrf subsurface reduce layout"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
+            entries: &[0, 1].map(|binding| wgpu::BindGroupLayoutEntry {
+                binding,
                 visibility: wgpu::ShaderStages::FRAGMENT,
                 ty: wgpu::BindingType::Texture {
                     sample_type: wgpu::TextureSampleType::Float { filterable: false },
@@ -35,7 +40,7 @@ impl SubsurfaceReduce {
                     multisampled: false,
                 },
                 count: None,
-            }],
+            }),
         });
         let pipeline = create_reduce_pipeline(device, &layout);
         Self { layout, pipeline }
@@ -48,10 +53,12 @@ pub(crate) struct SubsurfacePyramid {
     pub(crate) resolution: u32,
     /// Levels, down to [`SUBSURFACE_COARSEST`] (0: a blank pyramid the gather never reads).
     pub(crate) levels: u32,
-    /// All layers and levels, for the shading pipelines.
-    pub(crate) array: wgpu::TextureView,
-    /// Per face (layer), one view per level (render targets and the next level's source).
-    level_views: Vec<Vec<wgpu::TextureView>>,
+    /// All layers and levels of each texture ([`SUBSURFACE_FORMATS`]), for the shading
+    /// pipelines.
+    pub(crate) arrays: [wgpu::TextureView; 2],
+    /// Per face (layer), per level, a view of each texture (render targets and the next
+    /// level's source).
+    level_views: Vec<Vec<[wgpu::TextureView; 2]>>,
     /// Per face, the reduction's bind group of levels 1… (reading the level below).
     reduce_groups: Vec<Vec<wgpu::BindGroup>>,
     /// Level 0's depth buffer (not sampled).
@@ -72,37 +79,44 @@ impl SubsurfacePyramid {
         } else {
             0
         };
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("cdrf subsurface pyramid"),
-            size: wgpu::Extent3d {
-                width: resolution,
-                height: resolution,
-                depth_or_array_layers: layers,
-            },
-            mip_level_count: levels.max(1),
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: SUBSURFACE_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
+        let textures = SUBSURFACE_FORMATS.map(|format| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("cdrf subsurface pyramid"),
+                size: wgpu::Extent3d {
+                    width: resolution,
+                    height: resolution,
+                    depth_or_array_layers: layers,
+                },
+                mip_level_count: levels.max(1),
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            })
         });
-        let array = texture.create_view(&wgpu::TextureViewDescriptor {
-            label: Some("cdrf subsurface pyramid"),
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
+        let arrays = textures.each_ref().map(|texture| {
+            texture.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("cdrf subsurface pyramid"),
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            })
         });
-        let level_views: Vec<Vec<wgpu::TextureView>> = (0..layers)
+        let level_views: Vec<Vec<[wgpu::TextureView; 2]>> = (0..layers)
             .map(|layer| {
                 (0..levels)
                     .map(|level| {
-                        texture.create_view(&wgpu::TextureViewDescriptor {
-                            label: Some("cdrf subsurface level"),
-                            dimension: Some(wgpu::TextureViewDimension::D2),
-                            base_mip_level: level,
-                            mip_level_count: Some(1),
-                            base_array_layer: layer,
-                            array_layer_count: Some(1),
-                            ..Default::default()
+                        textures.each_ref().map(|texture| {
+                            texture.create_view(&wgpu::TextureViewDescriptor {
+                                label: Some("cdrf subsurface level"),
+                                dimension: Some(wgpu::TextureViewDimension::D2),
+                                base_mip_level: level,
+                                mip_level_count: Some(1),
+                                base_array_layer: layer,
+                                array_layer_count: Some(1),
+                                ..Default::default()
+                            })
                         })
                     })
                     .collect()
@@ -118,10 +132,16 @@ impl SubsurfacePyramid {
                         device.create_bind_group(&wgpu::BindGroupDescriptor {
                             label: Some("cdrf subsurface reduce"),
                             layout: &reduce.layout,
-                            entries: &[wgpu::BindGroupEntry {
-                                binding: 0,
-                                resource: wgpu::BindingResource::TextureView(finer),
-                            }],
+                            entries: &[
+                                wgpu::BindGroupEntry {
+                                    binding: 0,
+                                    resource: wgpu::BindingResource::TextureView(&finer[0]),
+                                },
+                                wgpu::BindGroupEntry {
+                                    binding: 1,
+                                    resource: wgpu::BindingResource::TextureView(&finer[1]),
+                                },
+                            ],
                         })
                     })
                     .collect()
@@ -146,20 +166,23 @@ impl SubsurfacePyramid {
         Self {
             resolution,
             levels,
-            array,
+            arrays,
             level_views,
             reduce_groups,
             depth,
         }
     }
 
-    /// Level 0 of face (layer) `face` as a render target cleared to zero flux (no surface), or
+    /// Level 0 of face (layer) `face` as render targets cleared to zero flux (no surface), or
     /// `None` in a blank pyramid.
-    pub(crate) fn level0_target(&self, face: usize) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+    pub(crate) fn level0_targets(
+        &self,
+        face: usize,
+    ) -> Option<[Option<wgpu::RenderPassColorAttachment<'_>>; 2]> {
         self.level_views
             .get(face)
             .and_then(|views| views.first())
-            .and_then(cleared_target)
+            .map(|views| views.each_ref().map(cleared_target))
     }
 
     /// Reduces face `face`'s level 0 level by level (after the light-map pass rendered it).
@@ -177,7 +200,7 @@ impl SubsurfacePyramid {
         for (coarser, group) in views.iter().skip(1).zip(groups) {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("cdrf subsurface reduce"),
-                color_attachments: &[cleared_target(coarser)],
+                color_attachments: &coarser.each_ref().map(cleared_target),
                 depth_stencil_attachment: None,
                 timestamp_writes: None,
                 occlusion_query_set: None,
@@ -251,11 +274,13 @@ fn create_reduce_pipeline(
             module: &shader,
             entry_point: Some("fs_reduce"),
             compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format: SUBSURFACE_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
+            targets: &SUBSURFACE_FORMATS.map(|format| {
+                Some(wgpu::ColorTargetState {
+                    format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })
+            }),
         }),
         multiview_mask: None,
         cache: None,
