@@ -2,10 +2,10 @@
 //! entered the surface far from a point and reached it through the medium, by the far field of
 //! the measured table's diffusion profile ([`FarField`]).
 //!
-//! The renderer gathers `R_far(d)` over the lit surface (the [kernel](SubsurfaceTables::kernel)),
-//! and shades with the table's **near field** `f − F_sphere` in place of `f`, where
-//! `F_sphere(κ, θ)` is the far field on the point's osculating sphere — what the table already
-//! holds of the gathered light. On the shadow side the measured spheres glow more (or less)
+//! The renderer gathers `R_far(d)` over the lit surface (the [kernel](SubsurfaceTables::kernel))
+//! and takes out of it `F_sphere(κ, θ)`, the far field on the point's osculating sphere — what
+//! the table already holds of the gathered light (the table less its **near field**
+//! `f − F_sphere`). On the shadow side the measured spheres glow more (or less)
 //! than the profile's far field says; the **shadow gain** `s(κ, θ)` carries that ratio.
 //!
 //! ```
@@ -55,7 +55,7 @@ pub struct SubsurfaceTables {
     pub kernel: Vec<Vec3>,
     /// Where the kernel ends, mm: [`REACH_LENGTHS`] times the longest kept length (or the cut).
     pub reach_mm: f32,
-    /// The near field `f − F_sphere`, what a renderer reads in the table's place.
+    /// The near field `f − F_sphere`: the table less it is what the gather replaces.
     pub near: Vec<Vec3>,
     /// The shadow gain `s(κ, θ)` ([`shadow_gain`]).
     pub gain: Vec<Vec3>,

@@ -211,8 +211,8 @@ fn interreflection_lights_the_knot_between_its_strands() {
 
 /// The light that entered the knot beside and behind each shadow-side point and reached it
 /// through the wax: the subsurface gather in place of T(d, μ), the lit side within a few per
-/// cent. Past θ = 90° it brings about the light the path tracer sends through the wax alone, no
-/// more (the rest crossed the air between the strands, and is the inter-reflection's).
+/// cent. Past θ = 90° it brings about the light the path tracer sends through the wax alone
+/// (the rest crossed the air between the strands, and is the inter-reflection's).
 #[test]
 fn the_subsurface_gather_lights_the_knot_shadow_side() {
     let result = run_small_case("knot");
@@ -231,11 +231,9 @@ fn the_subsurface_gather_lights_the_knot_shadow_side() {
         );
     }
     // Bins 90–100° … 130–180°: 0.85–1.33 × the light the path-traced knot sends through the
-    // wax alone there (docs/research/diffusion-gather.md, third study), and brighter than
-    // T(d, μ) by a fifth. At 128 px: T(d, μ) 0.52 / 0.34 / 0.20 / 0.30 of the reference (short of
-    // the wax's light by up to a third), the gather 0.64 / 0.49 / 0.37 / 0.42; before each
-    // texel's light was read across its spread, 0.66 / 0.53 / 0.47 / 0.50 (past 110°, half as
-    // much again as the wax carries).
+    // wax alone there (decomposed at 256 px: docs/research/diffusion-gather.md, third study),
+    // and a fifth more than T(d, μ). At 128 px: T(d, μ) 0.52 / 0.34 / 0.20 / 0.30 of the
+    // reference, the gather 0.64 / 0.49 / 0.37 / 0.42 (docs/research/eval-notes.md).
     const THROUGH_WAX: [f64; 4] = [0.67, 0.48, 0.29, 0.33];
     for (bin, wax) in (4..8).zip(THROUGH_WAX) {
         assert!(
@@ -263,10 +261,9 @@ fn the_subsurface_gather_lights_the_knot_shadow_side() {
 /// 1.45: since cdrf-fit's f is the ideal photograph's ring mean (close to the exitance, which
 /// the inter-reflection sends), the patches send 2–14 % more light than they did, and that
 /// cast shadow went from 1.29 to 1.37 (docs/research/captures.md, 2026-12-06 evening); and the
-/// knot's cast shadow, held to 0.72: the gather brings 0.37 of the reference there where the
-/// path tracer's wax alone carries 0.59 (512 px), and it lost a twentieth (0.80 → 0.76 with every
-/// term at 512 px, 0.79 → 0.749 here) when each texel's light came to be read across its spread
-/// (docs/research/thick-bodies.md, thirteenth pass).
+/// knot's cast shadow, held to 0.72: there the gather brings 0.37 of the reference (512 px)
+/// where the path tracer's light through the wax alone is 0.59 (256 px), a shortfall of the
+/// gather's, not of the inter-reflection (docs/research/eval-notes.md).
 #[test]
 fn every_term_meets_the_knot_targets() {
     for (name, whole) in [("knot", 0.10), ("knot_view2", 0.15)] {

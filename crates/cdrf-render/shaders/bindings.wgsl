@@ -9,8 +9,9 @@
 @group(1) @binding(3) var lut_sampler: sampler;
 // The LUT's rows, then the rows of its near field f(κ, θ) − F_sphere(κ, θ) — the table without
 // R_far over the osculating sphere (the LUT again where the material has no diffusion
-// profile): pipelines that may gather read it in the LUT's place (table_value); then the rows
-// of ℓ·(−∂ ln f/∂θ) the view's azimuth reads (surface_flow_value).
+// profile): the vertex terms read both to take F_sphere out of the gather
+// (sphere_far_field); then the rows of ℓ·(−∂ ln f/∂θ) the view's azimuth reads
+// (surface_flow_value).
 @group(1) @binding(4) var lut_and_near_field: texture_2d<f32>;
 // s(κ, θ): the measured table over F_sphere on the sphere's shadow side (docs/shading.md).
 @group(1) @binding(5) var subsurface_gain: texture_2d<f32>;
@@ -21,6 +22,6 @@
 // the light's irradiance or intensity), summed over the level-0 texels it covers; one layer
 // per face of each shadowed light.
 @group(3) @binding(2) var subsurface_pyramid: texture_2d_array<f32>;
-// Beside it, per texel Φ·|position|² (mm⁴), summed alike: the spread of a texel's light about
-// its mean position.
-@group(3) @binding(3) var subsurface_squares: texture_2d_array<f32>;
+// Beside it, per texel Φ·|position − mean|² summed over the level-0 texels it covers (mm² × Φ's
+// unit; subsurface_reduce_pass.wgsl): how far a texel's light spreads about its mean position.
+@group(3) @binding(3) var subsurface_spread: texture_2d_array<f32>;

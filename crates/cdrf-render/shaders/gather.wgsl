@@ -31,6 +31,7 @@ fn subsurface_kernel_value(distance_mm: f32) -> vec3<f32> {
 // most SPREAD_BOUND × the two reads' geometric mean (≈ R_far(d) for an exponential: where a
 // texel spreads further than about half the kernel's length the expansion is no guide).
 const SPREAD_BOUND: f32 = 1.15;
+const SPREAD_STEP_PER_CUT: f32 = 0.05;
 fn spread_kernel_value(
     to_point: vec3<f32>,
     ray: vec3<f32>,
@@ -39,9 +40,15 @@ fn spread_kernel_value(
 ) -> vec3<f32> {
     let d = length(to_point);
     let c = dot(to_point, ray) / max(d, 1e-6);
-    let radial_mm2 = mix(across_mm2, depth_mm2, c * c);
-    let lateral_mm2 = 2.0 * across_mm2 + depth_mm2 - radial_mm2;
-    let s = clamp(sqrt(radial_mm2), 0.05 * d, 0.4 * d) + 1e-6;
+    let radial_mm2 = mix(across_mm2, depth_mm2, min(c * c, 1.0));
+    let lateral_mm2 = max(2.0 * across_mm2 + depth_mm2 - radial_mm2, 0.0);
+    // At least SPREAD_STEP_PER_CUT · ℓ_c: the kernel is linear in √d, so its slope near d = 0
+    // grows without bound and a step narrower than that would read a texel at the point as
+    // nothing.
+    let s = max(
+        clamp(sqrt(radial_mm2), 0.05 * d, 0.4 * d),
+        SPREAD_STEP_PER_CUT * material.subsurface_cut_mm,
+    ) + 1e-6;
     let farther = subsurface_kernel_value(d + s);
     let nearer = subsurface_kernel_value(d - s);
     let slope = (farther - nearer) / (2.0 * s);
@@ -181,11 +188,11 @@ fn subsurface_gather_level(
             let tolerance = max(SUBSURFACE_AIR_TOLERANCE_MM, texel_mm);
             share *= through_medium(ray, shape, q, tolerance)
                 * upstream_weight(ray, shape, q, texel_mm);
-            // How far the texel's light spreads along the light about q: the spread of
-            // Φ·|position|² less the texel's width²/6 across it.
-            let square = textureLoad(subsurface_squares, texel, layer, i32(level)).x;
+            // How far the texel's light spreads along the light about q: its spread less the
+            // texel's width²/6 across it.
+            let spread = textureLoad(subsurface_spread, texel, layer, i32(level)).x;
             let across_mm2 = texel_mm * texel_mm / 12.0;
-            let depth_mm2 = max(square / texel_sum.w - dot(q, q) - 2.0 * across_mm2, 0.0);
+            let depth_mm2 = max(spread / texel_sum.w - 2.0 * across_mm2, 0.0);
             sum += share * texel_sum.w * spread_kernel_value(p - q, ray, across_mm2, depth_mm2);
         }
     }

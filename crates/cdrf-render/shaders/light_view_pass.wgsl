@@ -73,11 +73,12 @@ fn lit_texel(in: LightViewOut, resolution: u32) -> LitTexel {
 struct SubsurfaceTexel {
     // Φ·position and Φ.
     @location(0) sum: vec4<f32>,
-    // Φ·|position|².
-    @location(1) square: f32,
+    // Φ·|position − mean|² summed over the texel's points: 0 at level 0.
+    @location(1) spread: f32,
 }
 
-// The subsurface map pass: level 0 of the pyramid, Φ·position, Φ and Φ·|position|² per texel,
+// The subsurface map pass: level 0 of the pyramid, Φ·position and Φ per texel (its spread is 0:
+// one point),
 // Φ = A · μ^(p−1) (A: texel_light_area, μ^p the entry factor, 1/μ the surface a texel covers).
 // Materials without a diffusion profile (Lambert, the Gaussian CDRF) occlude but let no light
 // in.
@@ -92,6 +93,5 @@ fn fs_subsurface_map(in: LightViewOut) -> SubsurfaceTexel {
     let mu = max(texel.cos_theta, 0.1);
     let flux = texel.area * pow(mu, material.subsurface_entry_cosine_power - 1.0);
     out.sum = vec4<f32>(in.light_position_mm * flux, flux);
-    out.square = dot(in.light_position_mm, in.light_position_mm) * flux;
     return out;
 }

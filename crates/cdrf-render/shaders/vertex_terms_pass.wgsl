@@ -156,8 +156,9 @@ fn vertex_non_local(
             dot(shape.normal, light_ray(index, shape.point)),
             shape_curvature_per_mm,
         );
+        // As the pixel's f: by V where shadows are on.
         terms.gather -= sphere_far_field(index, world_position, normal, light_curvature_per_mm)
-            * terms.visibility;
+            * select(vec3<f32>(1.0), terms.visibility, SHADOWS);
     }
     return terms;
 }

@@ -1,13 +1,13 @@
 //! The subsurface pyramid: per face of a shadowed light, the light entering the lit surface as
 //! the light sees it (level 0, rendered by the light-map pass with `fs_subsurface_map`) and
 //! each further level the 2 × 2 sums of the one below, which the subsurface gather reads
-//! coarser with distance. Two textures: Φ·position and Φ, and Φ·|position|², whose spread
-//! about the mean position the gather reads the kernel across (a texel's light is not all at
-//! its mean).
+//! coarser with distance. Two textures: Φ·position and Φ; and the spread Φ·|position − mean|²
+//! summed, which the gather reads the kernel across (a texel's light is not all at its mean).
 
 use crate::shaders::subsurface_reduce_shader_source;
 
-/// The pyramid's formats: Φ·position (mm³) and Φ (mm²), and Φ·|position|² (mm⁴); f32 all.
+/// The pyramid's formats: Φ·position (mm × Φ's unit) and Φ (mm² for a directional light, sr
+/// for a point or spot), and the spread (mm² × Φ's unit); f32 all.
 pub(crate) const SUBSURFACE_FORMATS: [wgpu::TextureFormat; 2] = [
     wgpu::TextureFormat::Rgba32Float,
     wgpu::TextureFormat::R32Float,
