@@ -26,11 +26,12 @@ fn subsurface_kernel_value(distance_mm: f32) -> vec3<f32> {
 // and `depth_mm2` along it (a surface turning from the light spans depths). R_far is convex, so
 // the mean alone reads too little: on a sphere's shadow side about 0.9 of the light
 // (docs/research/thick-bodies.md). Read at d ± s, s the spread along the direction to the
-// point, at least 5 % and at most 40 % of d (the expansion fails where the spread is not small
-// against the distance), and the spread across it through the slope between the two reads; at
-// most SPREAD_BOUND × the two reads' geometric mean (≈ R_far(d) for an exponential: where a
-// texel spreads further than about half the kernel's length the expansion is no guide).
+// point kept within SPREAD_STEP_PER_DISTANCE (5–40 %) of d (the expansion fails where the
+// spread is not small against the distance), and the spread across it through the slope between the two
+// reads; at most SPREAD_BOUND × the two reads' geometric mean (≈ R_far(d) for an exponential:
+// where a texel spreads further than about half the kernel's length the expansion is no guide).
 const SPREAD_BOUND: f32 = 1.15;
+const SPREAD_STEP_PER_DISTANCE: vec2<f32> = vec2<f32>(0.05, 0.4);
 const SPREAD_STEP_PER_CUT: f32 = 0.05;
 fn spread_kernel_value(
     to_point: vec3<f32>,
@@ -46,7 +47,7 @@ fn spread_kernel_value(
     // grows without bound and a step narrower than that would read a texel at the point as
     // nothing.
     let s = max(
-        clamp(sqrt(radial_mm2), 0.05 * d, 0.4 * d),
+        clamp(sqrt(radial_mm2), SPREAD_STEP_PER_DISTANCE.x * d, SPREAD_STEP_PER_DISTANCE.y * d),
         SPREAD_STEP_PER_CUT * material.subsurface_cut_mm,
     ) + 1e-6;
     let farther = subsurface_kernel_value(d + s);
