@@ -27,9 +27,10 @@ fn subsurface_kernel_value(distance_mm: f32) -> vec3<f32> {
 // the mean alone reads too little: on a sphere's shadow side about 0.9 of the light
 // (docs/research/thick-bodies.md). Read at d ± s, s the spread along the direction to the
 // point kept within SPREAD_STEP_PER_DISTANCE (5–40 %) of d (the expansion fails where the
-// spread is not small against the distance), and the spread across it through the slope between the two
-// reads; at most SPREAD_BOUND × the two reads' geometric mean (≈ R_far(d) for an exponential:
-// where a texel spreads further than about half the kernel's length the expansion is no guide).
+// spread is not small against the distance), and the spread across it through the slope
+// between the two reads; at most SPREAD_BOUND × the two reads' geometric mean (≈ R_far(d) for
+// an exponential: where a texel spreads further than about half the kernel's length the
+// expansion is no guide).
 const SPREAD_BOUND: f32 = 1.15;
 const SPREAD_STEP_PER_DISTANCE: vec2<f32> = vec2<f32>(0.05, 0.4);
 const SPREAD_STEP_PER_CUT: f32 = 0.05;
