@@ -122,8 +122,9 @@ pub struct Options {
     pub subsurface_cut_mm: f32,
     /// Most texels per side of the subsurface gather's finest map (a power of two is used).
     /// Objects wider than about `subsurface_max_resolution · ℓ_c / 1.5` are sampled more
-    /// coarsely than the cut (smooth, but less exact). Memory: 16 bytes × 4/3 per texel and
-    /// shadowed light.
+    /// coarsely than the cut (smooth, but less exact). Memory: 20 bytes × 4/3 per texel and
+    /// face of each shadowed light (a point light has six faces): the light's sum and its
+    /// spread.
     pub subsurface_max_resolution: u32,
 }
 
