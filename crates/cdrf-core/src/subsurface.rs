@@ -3,9 +3,8 @@
 //! the measured table's diffusion profile ([`FarField`]).
 //!
 //! The renderer gathers `R_far(d)` over the lit surface (the [kernel](SubsurfaceTables::kernel))
-//! and takes out of it `F_sphere(κ, θ)`, the far field on the point's osculating sphere — what
-//! the table already holds of the gathered light (the table less its **near field**
-//! `f − F_sphere`). On the shadow side the measured spheres glow more (or less)
+//! and takes out of it [`F_sphere(κ, θ)`](SubsurfaceTables::sphere), the far field on the
+//! point's osculating sphere — what the table already holds of the gathered light. On the shadow side the measured spheres glow more (or less)
 //! than the profile's far field says; the **shadow gain** `s(κ, θ)` carries that ratio.
 //!
 //! ```
@@ -21,7 +20,7 @@
 //! let axis = CurvatureAxis::from_radii_mm(50.0, 10.0, 4);
 //! let lut = CdrfLut::new(axis, 91, vec![Vec3::splat(0.5); 4 * 91])?;
 //! let tables = SubsurfaceTables::new(&FarField::new(&profile, 1.0), &lut, 32);
-//! assert_eq!(tables.near.len(), 4 * 91);
+//! assert_eq!(tables.sphere.len(), 4 * 91);
 //! assert!(tables.kernel[0].x > tables.kernel[31].x);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -46,7 +45,7 @@ pub const GAIN_FROM_THETA_DEG: f32 = 100.0;
 /// 0.5–2.)
 pub const GAIN_RANGE: [f32; 2] = [0.25, 4.0];
 
-/// A material's subsurface gather tables. `near` and `gain` lie on the measured table's axes:
+/// A material's subsurface gather tables. `sphere` and `gain` lie on the measured table's axes:
 /// `columns` θ columns ([`theta_rad_at`]) per row, `rows` κ rows, row-major.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SubsurfaceTables {
@@ -55,13 +54,13 @@ pub struct SubsurfaceTables {
     pub kernel: Vec<Vec3>,
     /// Where the kernel ends, mm: [`REACH_LENGTHS`] times the longest kept length (or the cut).
     pub reach_mm: f32,
-    /// The near field `f − F_sphere`: the table less it is what the gather replaces.
-    pub near: Vec<Vec3>,
+    /// `F_sphere(κ, θ)` ([`sphere_far_field`]): what the gather replaces.
+    pub sphere: Vec<Vec3>,
     /// The shadow gain `s(κ, θ)` ([`shadow_gain`]).
     pub gain: Vec<Vec3>,
-    /// θ columns of `near` and `gain`.
+    /// θ columns of `sphere` and `gain`.
     pub columns: usize,
-    /// κ rows of `near` and `gain`.
+    /// κ rows of `sphere` and `gain`.
     pub rows: usize,
 }
 
@@ -76,8 +75,8 @@ impl SubsurfaceTables {
         Self {
             kernel,
             reach_mm: reach_mm as f32,
-            near: near_field(lut, &sphere),
             gain: shadow_gain(lut, &sphere, columns),
+            sphere,
             columns,
             rows: axis.count,
         }
@@ -119,17 +118,6 @@ pub fn sphere_far_field(far: &FarField, axis: CurvatureAxis, columns: usize) -> 
             }
         });
     sphere
-}
-
-/// The near field `f − F_sphere` of `lut` on its own axes, given `sphere` = `F_sphere` there
-/// ([`sphere_far_field`]).
-pub fn near_field(lut: &CdrfLut, sphere: &[Vec3]) -> Vec<Vec3> {
-    let columns = lut.theta_count();
-    (0..lut.curvature_axis().count)
-        .flat_map(|row| lut.row(row).iter().take(columns))
-        .zip(sphere)
-        .map(|(f, far)| *f - *far)
-        .collect()
 }
 
 /// The shadow gain `s(κ, θ) = f(κ, θ′) / F_sphere(κ, θ′)` per channel, `θ′ = max(θ, 100°)`
@@ -263,9 +251,9 @@ mod tests {
     }
 
     /// A constant profile of one term: the kernel starts at R_far(0) = w (1/ℓ_c − 1/ℓ)/(2πℓ),
-    /// falls, and ends at the reach; the near field is the table minus F_sphere.
+    /// falls, and ends at the reach; the tables lie on the table's axes.
     #[test]
-    fn the_kernel_and_the_near_field_of_a_one_term_profile() {
+    fn the_kernel_and_the_tables_of_a_one_term_profile() {
         let profile = DiffusionProfile::new(
             vec![ProfileTerm {
                 length_mm: 4.0,
@@ -289,10 +277,7 @@ mod tests {
         let axis = CurvatureAxis::from_radii_mm(40.0, 10.0, 3);
         let lut = CdrfLut::new(axis, 19, vec![Vec3::splat(0.7); 3 * 19]).unwrap();
         let tables = SubsurfaceTables::new(&far, &lut, 16);
-        let sphere = sphere_far_field(&far, axis, 19);
         assert_eq!((tables.columns, tables.rows), (19, 3));
-        for ((near, far), f) in tables.near.iter().zip(&sphere).zip(lut.radiance()) {
-            assert_eq!(*near, *f - *far);
-        }
+        assert_eq!((tables.sphere.len(), tables.gain.len()), (3 * 19, 3 * 19));
     }
 }

@@ -75,10 +75,10 @@ fn light_share(
     let shadowed = LIGHT_MAPS && index < shadows.light_count;
     var f: vec3<f32>;
     if SUBSURFACE && (MODEL == MODEL_MEASURED || MODEL == MODEL_GAUSSIAN_LUT) {
-        // With the gather on this light, the far field the table holds through the osculating
-        // sphere is taken out of G per vertex (sphere_far_field; the gather brings it from the
-        // surface that is there).
-        f = table_value(curvature_per_mm, theta, false);
+        // The table as lut_blocks holds it (with the gather on this light, the far field the
+        // table holds through the osculating sphere is taken out of G per vertex:
+        // sphere_far_field).
+        f = table_value(curvature_per_mm, theta);
     } else {
         f = local_value(curvature_per_mm, cos_theta, theta);
     }

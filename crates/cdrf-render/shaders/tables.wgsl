@@ -1,4 +1,4 @@
-// Table reads: the LUT f(κ, θ), its near field f − F_sphere, the gain s(κ, θ) and the view
+// Table reads: the LUT f(κ, θ), F_sphere(κ, θ), the gain s(κ, θ) and the view
 // correction g(κ, θ, φ), bilinear by the sampler or by hand (MANUAL_FILTERING). See
 // docs/shading.md.
 
@@ -66,28 +66,33 @@ fn view_value(curvature_per_mm: f32, theta: f32, phi: f32) -> vec3<f32> {
     return mix(a, b, layer - below);
 }
 
-// Block `block` of lut_and_near_field at (κ, θ): 0 the LUT, 1 its near field, 2 the flow (as
+// Block `block` of lut_blocks at (κ, θ): 0 the LUT, 1 F_sphere, 2 the flow (as
 // lut_value: the row coordinate is clamped to its block, so filtering never mixes two).
 fn lut_block_value(curvature_per_mm: f32, theta: f32, block: f32) -> vec3<f32> {
     let at = lut_coordinates(curvature_per_mm, theta);
     let rows = material.lut_size.y;
     return read_bilinear(
-        lut_and_near_field,
+        lut_blocks,
         at.x,
         at.y + block * rows,
         vec2<f32>(material.lut_size.x, 3.0 * rows),
     );
 }
 
-// f(κ, θ), or its near field f − F_sphere.
-fn table_value(curvature_per_mm: f32, theta: f32, near_field: bool) -> vec3<f32> {
-    return lut_block_value(curvature_per_mm, theta, select(0.0, 1.0, near_field));
+// f(κ, θ), read from lut_blocks.
+fn table_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
+    return lut_block_value(curvature_per_mm, theta, 0.0);
+}
+
+// F_sphere(κ, θ): R_far over the osculating sphere, what the table holds of the gather's light.
+fn sphere_far_field_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
+    return lut_block_value(curvature_per_mm, theta, 1.0);
 }
 
 // ℓ·a(κ, θ) = ℓ·κ·(−∂ ln f / ∂θ), no unit: how fast f falls along the surface away from the
 // light, per transport mean free path ℓ. ℓ·(−∂ ln f / ∂θ) (cdrf-core's
-// CdrfLut::flow_mm_per_rad, ℓ per channel and 0 for an opaque table) is lut_and_near_field's
-// third block; κ is the point's own, so a plane (κ = 0, below the table's axis) has no flow.
+// CdrfLut::flow_mm_per_rad, ℓ per channel and 0 for an opaque table) is the third block of
+// lut_blocks; κ is the point's own, so a plane (κ = 0, below the table's axis) has no flow.
 fn surface_flow_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
     return max(curvature_per_mm, 0.0) * lut_block_value(curvature_per_mm, theta, 2.0);
 }

@@ -94,7 +94,7 @@ fn shadow_shape_curvature_per_mm(mean_per_mm: f32, along_light_per_mm: f32) -> f
     return max(min(mean_per_mm, along_light_per_mm), 0.25 * mean_per_mm);
 }
 
-// F_sphere, the far field the table holds (f − its near field), in G's units (per unit of the
+// F_sphere, the far field the table holds (lut_blocks' second block), in G's units (per unit of the
 // light's strength): taken out of G here rather than out of f per pixel, so that G and the
 // far field it replaces are interpolated alike and cancel on a sphere.
 fn sphere_far_field(
@@ -109,8 +109,7 @@ fn sphere_far_field(
     let light = frame.lights[index];
     let incidence = light_incidence(light, world_position);
     let theta = angle(dot(normal, incidence.to_light));
-    let far = table_value(curvature_per_mm, theta, false)
-        - table_value(curvature_per_mm, theta, true);
+    let far = sphere_far_field_value(curvature_per_mm, theta);
     let strength = light_strength(light);
     return select(vec3<f32>(0.0), far * incidence.irradiance / strength, strength > vec3<f32>(0.0));
 }

@@ -338,22 +338,21 @@ impl MaterialFactory {
         uniforms.view_size = [view.phi_count() as f32, view.theta_count() as f32];
         uniforms.view_curvature_per_mm = [view_layers.min_per_mm, view_layers.max_per_mm];
         uniforms.view_layers = view_layers.count as f32;
-        // What pipelines that may gather read in the LUT's place: its rows, then the rows of
-        // its near field f − F_sphere (the LUT again without a diffusion profile; the vertex
-        // terms read both to take F_sphere out of the gather); then the flow ℓ·(−∂ ln f/∂θ) of
-        // the view's azimuth.
-        let near_texture = match lut {
+        // The table's blocks of rows (bindings.wgsl's lut_blocks): the LUT, F_sphere (what the
+        // gather replaces; 0 without a diffusion profile), the flow ℓ·(−∂ ln f/∂θ) of the
+        // view's azimuth.
+        let blocks_texture = match lut {
             Some(lut) => {
                 let mut rows = lut.radiance().to_vec();
                 match &subsurface {
-                    Some(tables) => rows.extend_from_slice(&tables.near),
-                    None => rows.extend_from_slice(lut.radiance()),
+                    Some(tables) => rows.extend_from_slice(&tables.sphere),
+                    None => rows.extend(std::iter::repeat_n(Vec3::ZERO, lut.radiance().len())),
                 }
                 rows.extend(lut.flow_mm_per_rad());
                 self.upload_table(
                     device,
                     queue,
-                    "cdrf table and near field",
+                    "cdrf table blocks",
                     lut.theta_count(),
                     3 * lut.curvature_axis().count,
                     &rows,
@@ -362,7 +361,7 @@ impl MaterialFactory {
             None => self.upload_table(
                 device,
                 queue,
-                "cdrf table and near field (unused)",
+                "cdrf table blocks (unused)",
                 1,
                 1,
                 &[Vec3::ZERO],
@@ -408,7 +407,7 @@ impl MaterialFactory {
         });
         let lut_view = lut_texture.create_view(&Default::default());
         let view_view = view_texture.create_view(&Default::default());
-        let near_view = near_texture.create_view(&Default::default());
+        let blocks_view = blocks_texture.create_view(&Default::default());
         let gain_view = gain_texture.create_view(&Default::default());
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cdrf material"),
@@ -432,7 +431,7 @@ impl MaterialFactory {
                 },
                 wgpu::BindGroupEntry {
                     binding: 4,
-                    resource: wgpu::BindingResource::TextureView(&near_view),
+                    resource: wgpu::BindingResource::TextureView(&blocks_view),
                 },
                 wgpu::BindGroupEntry {
                     binding: 5,
