@@ -78,10 +78,9 @@ struct SubsurfaceTexel {
 }
 
 // The subsurface map pass: level 0 of the pyramid, Φ·position and Φ per texel (its spread is 0:
-// one point),
-// Φ = A · μ^(p−1) (A: texel_light_area, μ^p the entry factor, 1/μ the surface a texel covers).
-// Materials without a diffusion profile (Lambert, the Gaussian CDRF) occlude but let no light
-// in.
+// one point), Φ = A · μ^(p−1) (A: texel_light_area, μ^p the entry factor, 1/μ the surface a
+// texel covers). Materials without a diffusion profile (Lambert, the Gaussian CDRF) occlude but
+// let no light in.
 @fragment
 fn fs_subsurface_map(in: LightViewOut) -> SubsurfaceTexel {
     var out: SubsurfaceTexel;

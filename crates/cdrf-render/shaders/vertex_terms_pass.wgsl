@@ -94,21 +94,19 @@ fn shadow_shape_curvature_per_mm(mean_per_mm: f32, along_light_per_mm: f32) -> f
     return max(min(mean_per_mm, along_light_per_mm), 0.25 * mean_per_mm);
 }
 
-// F_sphere, the far field the table holds (lut_blocks' second block), in G's units (per unit of the
-// light's strength): taken out of G here rather than out of f per pixel, so that G and the
-// far field it replaces are interpolated alike and cancel on a sphere.
+// F_sphere, the far field the table holds (lut_blocks' second block), in G's units (per unit
+// of the light's strength): taken out of G here rather than out of f per pixel, so that G and
+// the far field it replaces are interpolated alike and cancel on a sphere. `theta`: between the
+// normal and `incidence.to_light`.
 fn sphere_far_field(
-    index: u32,
-    world_position: vec3<f32>,
-    normal: vec3<f32>,
+    light: Light,
+    incidence: Incidence,
+    theta: f32,
     curvature_per_mm: f32,
 ) -> vec3<f32> {
     if !(MODEL == MODEL_MEASURED || MODEL == MODEL_GAUSSIAN_LUT) {
         return vec3<f32>(0.0);
     }
-    let light = frame.lights[index];
-    let incidence = light_incidence(light, world_position);
-    let theta = angle(dot(normal, incidence.to_light));
     let far = sphere_far_field_value(curvature_per_mm, theta);
     let strength = light_strength(light);
     return select(vec3<f32>(0.0), far * incidence.irradiance / strength, strength > vec3<f32>(0.0));
@@ -138,6 +136,9 @@ fn vertex_non_local(
             shape_curvature_per_mm,
         );
         terms.gather = subsurface_gather(index, shape);
+        let light = frame.lights[index];
+        let incidence = light_incidence(light, world_position);
+        let theta = angle(dot(normal, incidence.to_light));
         let v = terms.visibility;
         if SHADOWS && any(v < vec3<f32>(1.0)) {
             // s read at the mean curvature: the sphere whose shadow side stands for the body
@@ -146,8 +147,7 @@ fn vertex_non_local(
             // photographs barely measure. s is that sphere's own correction of the profile; a
             // body that is not the sphere gets half of it in log (√s): the 15 mm cap at the end
             // of a 70 mm capsule is lit through the capsule's length (docs/shading.md).
-            let to_light = light_incidence(frame.lights[index], world_position).to_light;
-            let gain = subsurface_gain_value(curvature_per_mm, angle(dot(normal, to_light)));
+            let gain = subsurface_gain_value(curvature_per_mm, theta);
             terms.gather *= v + (vec3<f32>(1.0) - v) * sqrt(gain);
         }
         terms.gather *= confinement_gain(
@@ -156,7 +156,7 @@ fn vertex_non_local(
             shape_curvature_per_mm,
         );
         // As the pixel's f: by V where shadows are on.
-        terms.gather -= sphere_far_field(index, world_position, normal, light_curvature_per_mm)
+        terms.gather -= sphere_far_field(light, incidence, theta, light_curvature_per_mm)
             * select(vec3<f32>(1.0), terms.visibility, SHADOWS);
     }
     return terms;
