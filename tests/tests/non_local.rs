@@ -200,6 +200,61 @@ fn a_shape_shadowing_another() {
     );
 }
 
+/// Shadows off, the gather on: the pixel keeps f unshadowed, so the far field the table holds
+/// (F_sphere) must leave G whole too, not by the visibility V that the gather's maps still
+/// compute. Behind the small sphere of `a_shape_shadowing_another` (V ≈ 0 there) the big sphere
+/// then renders as the table alone does, give or take the gather's light from the small sphere;
+/// taking out V·F_sphere instead would add F_sphere, most of the lit side's f for the wax.
+#[test]
+fn without_shadows_the_gather_leaves_a_cast_shadow_as_the_table() {
+    let (lut, _) = wax();
+    let small_centre = Vec3::new(-32.0, 10.0, 17.3);
+    let big_centre = Vec3::new(12.0, 0.0, 0.0);
+    let (mesh, curvature) = merged(&[
+        (Mesh::icosphere(12.0, 5), small_centre),
+        (Mesh::icosphere(25.0, 5), big_centre),
+    ]);
+    let assets = SceneAssets {
+        mesh,
+        curvature_per_mm: curvature.mean_per_mm,
+        curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
+        material: Material::Measured(lut),
+        surfaces: Default::default(),
+    };
+    let half_height = 45.0;
+    let light = Vec3::NEG_X;
+    let table = render_predictable(&scene(half_height, light, NonLocal::OFF), &assets);
+    for transmission in [false, true] {
+        let gather = NonLocal {
+            transmission,
+            subsurface: true,
+            ..NonLocal::OFF
+        };
+        let gathered = render_predictable(&scene(half_height, light, gather), &assets);
+        for (where_, x_mm, y_mm) in [
+            (
+                "behind the small sphere",
+                big_centre.x - 15.0,
+                small_centre.y,
+            ),
+            ("outside its shadow", big_centre.x - 15.0, -14.0),
+        ] {
+            let p = pixel_of(x_mm, y_mm, half_height);
+            let (a, b) = (mean_red(&table, p, 1), mean_red(&gathered, p, 1));
+            println!(
+                "{where_}: {a:.4} the table alone, {b:.4} with the gather \
+                 (transmission {transmission}), no shadows"
+            );
+            assert!(a > 0.15, "{a}");
+            assert!(
+                (b - a).abs() < 0.1 * a,
+                "{where_}: {b} with the gather (transmission {transmission}) against {a} for \
+                 the table"
+            );
+        }
+    }
+}
+
 /// A flat slab `thickness_mm` thick and 60 mm square, its faces normal to z, in 2 mm quads (the
 /// terms are evaluated per vertex).
 fn slab(thickness_mm: f32, material: Material) -> SceneAssets {

@@ -126,7 +126,8 @@ fn vertex_non_local(
         curvature_per_mm,
         light_curvature_per_mm,
     );
-    if SHADOWS || TRANSMISSION {
+    // V also without shadows where the gather runs: G − V·F_sphere below needs it.
+    if SHADOWS || TRANSMISSION || gathers_subsurface() {
         terms = non_local_terms(index, world_position, normal, shape_curvature_per_mm);
     }
     if gathers_subsurface() {
@@ -155,9 +156,11 @@ fn vertex_non_local(
             dot(shape.normal, light_ray(index, shape.point)),
             shape_curvature_per_mm,
         );
-        // As the pixel's f: by V where shadows are on.
+        // By V whether or not shadows are on: G misses the sources the light's map cannot see
+        // as F_sphere·V does, so that G − V·F_sphere ≈ 0 on a sphere even in a cast shadow, and
+        // without shadows the pixel keeps its f whole.
         terms.gather -= sphere_far_field(light, incidence, theta, light_curvature_per_mm)
-            * select(vec3<f32>(1.0), terms.visibility, SHADOWS);
+            * terms.visibility;
     }
     return terms;
 }
