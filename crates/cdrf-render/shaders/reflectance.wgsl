@@ -73,15 +73,9 @@ fn light_share(
     terms: NonLocalTerms,
 ) -> LightShare {
     let shadowed = LIGHT_MAPS && index < shadows.light_count;
-    var f: vec3<f32>;
-    if SUBSURFACE && (MODEL == MODEL_MEASURED || MODEL == MODEL_GAUSSIAN_LUT) {
-        // The table as lut_blocks holds it (with the gather on this light, the far field the
-        // table holds through the osculating sphere is taken out of G per vertex:
-        // sphere_far_field).
-        f = table_value(curvature_per_mm, theta);
-    } else {
-        f = local_value(curvature_per_mm, cos_theta, theta);
-    }
+    // The whole table, also with the gather: the far field it holds through the osculating
+    // sphere is taken out of G per vertex (sphere_far_field).
+    var f = local_value(curvature_per_mm, cos_theta, theta);
     var share: LightShare;
     share.visibility = vec3<f32>(1.0);
     // The light through material the table does not see: T(d, μ) in π·L/E (times the

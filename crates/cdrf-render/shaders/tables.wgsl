@@ -66,8 +66,8 @@ fn view_value(curvature_per_mm: f32, theta: f32, phi: f32) -> vec3<f32> {
     return mix(a, b, layer - below);
 }
 
-// Block `block` of lut_blocks at (κ, θ): 0 the LUT, 1 F_sphere, 2 the flow (as
-// lut_value: the row coordinate is clamped to its block, so filtering never mixes two).
+// Block `block` of lut_blocks at (κ, θ): 0 F_sphere, 1 the flow (as lut_value: the row
+// coordinate is clamped to its block, so filtering never mixes two).
 fn lut_block_value(curvature_per_mm: f32, theta: f32, block: f32) -> vec3<f32> {
     let at = lut_coordinates(curvature_per_mm, theta);
     let rows = material.lut_size.y;
@@ -75,26 +75,21 @@ fn lut_block_value(curvature_per_mm: f32, theta: f32, block: f32) -> vec3<f32> {
         lut_blocks,
         at.x,
         at.y + block * rows,
-        vec2<f32>(material.lut_size.x, 3.0 * rows),
+        vec2<f32>(material.lut_size.x, 2.0 * rows),
     );
-}
-
-// f(κ, θ), read from lut_blocks.
-fn table_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
-    return lut_block_value(curvature_per_mm, theta, 0.0);
 }
 
 // F_sphere(κ, θ): R_far over the osculating sphere, what the table holds of the gather's light.
 fn sphere_far_field_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
-    return lut_block_value(curvature_per_mm, theta, 1.0);
+    return lut_block_value(curvature_per_mm, theta, 0.0);
 }
 
 // ℓ·a(κ, θ) = ℓ·κ·(−∂ ln f / ∂θ), no unit: how fast f falls along the surface away from the
 // light, per transport mean free path ℓ. ℓ·(−∂ ln f / ∂θ) (cdrf-core's
-// CdrfLut::flow_mm_per_rad, ℓ per channel and 0 for an opaque table) is the third block of
+// CdrfLut::flow_mm_per_rad, ℓ per channel and 0 for an opaque table) is the second block of
 // lut_blocks; κ is the point's own, so a plane (κ = 0, below the table's axis) has no flow.
 fn surface_flow_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
-    return max(curvature_per_mm, 0.0) * lut_block_value(curvature_per_mm, theta, 2.0);
+    return max(curvature_per_mm, 0.0) * lut_block_value(curvature_per_mm, theta, 1.0);
 }
 
 // s(κ, θ) on the LUT's axes (as lut_value).
@@ -108,7 +103,7 @@ fn subsurface_gain_value(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
 // more of it. h(x) per channel, x = ℓ·a·(−v·l)/sin θ: e^x, or 1/(1 − AGAINST_FLOW_SCALE·x) where
 // x < 0 (gentler, as the spheres lit from beside the camera show); 1 wherever the camera is at
 // 90° to the light.
-// ℓ the material's (in the table's third block), on the shadow side for views along the flow
+// ℓ the material's (in lut_blocks' second block), on the shadow side for views along the flow
 // ℓ·(1 + SHADOW_FLUX_GAIN·|cos θ|). Mirrors cdrf-core's azimuth::factor, whose constants these
 // are (docs/shading.md, "The view's azimuth").
 fn view_azimuth(curvature_per_mm: f32, theta: f32, view_dot_light: f32) -> vec3<f32> {

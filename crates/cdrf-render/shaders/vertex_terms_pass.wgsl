@@ -94,7 +94,7 @@ fn shadow_shape_curvature_per_mm(mean_per_mm: f32, along_light_per_mm: f32) -> f
     return max(min(mean_per_mm, along_light_per_mm), 0.25 * mean_per_mm);
 }
 
-// F_sphere, the far field the table holds (lut_blocks' second block), in G's units (per unit
+// F_sphere, the far field the table holds (lut_blocks' first block), in G's units (per unit
 // of the light's strength): taken out of G here rather than out of f per pixel, so that G and
 // the far field it replaces are interpolated alike and cancel on a sphere. `theta`: between the
 // normal and `incidence.to_light`.

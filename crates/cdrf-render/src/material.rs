@@ -338,23 +338,22 @@ impl MaterialFactory {
         uniforms.view_size = [view.phi_count() as f32, view.theta_count() as f32];
         uniforms.view_curvature_per_mm = [view_layers.min_per_mm, view_layers.max_per_mm];
         uniforms.view_layers = view_layers.count as f32;
-        // The table's blocks of rows (bindings.wgsl's lut_blocks): the LUT, F_sphere (what the
-        // gather replaces; 0 without a diffusion profile), the flow ℓ·(−∂ ln f/∂θ) of the
-        // view's azimuth.
+        // The table's blocks of rows (bindings.wgsl's lut_blocks): F_sphere (what the gather
+        // replaces; 0 without a diffusion profile), then the flow ℓ·(−∂ ln f/∂θ) of the view's
+        // azimuth.
         let blocks_texture = match lut {
             Some(lut) => {
-                let mut rows = lut.radiance().to_vec();
-                match &subsurface {
-                    Some(tables) => rows.extend_from_slice(&tables.sphere),
-                    None => rows.extend(std::iter::repeat_n(Vec3::ZERO, lut.radiance().len())),
-                }
+                let mut rows = match &subsurface {
+                    Some(tables) => tables.sphere.clone(),
+                    None => vec![Vec3::ZERO; lut.radiance().len()],
+                };
                 rows.extend(lut.flow_mm_per_rad());
                 self.upload_table(
                     device,
                     queue,
                     "cdrf table blocks",
                     lut.theta_count(),
-                    3 * lut.curvature_axis().count,
+                    2 * lut.curvature_axis().count,
                     &rows,
                 )?
             }
