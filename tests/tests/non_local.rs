@@ -439,6 +439,78 @@ fn non_local_terms_do_not_pattern_the_surface() {
     }
 }
 
+/// A lit point beside a cast shadow gets all the light a point in the umbra gets, and its own:
+/// with every term it must not render darker than the umbra beside it. On the torus's hole wall
+/// (the ring's shadow, at low curvature near the terminator, where the profile's far field on
+/// the osculating sphere F_sphere exceeds the table f) G falls short of F_sphere at the lit
+/// edge; taking the whole shortfall out drew a dark line along the shadow's edge (lit / umbra
+/// 0.52–0.57, 512², lavapipe); with the shortfall at most f / F_sphere of it, 0.84–0.97.
+///
+/// Each row is crossed: where the shadows alone keep ≥ 95 % of the local model's light at a
+/// pixel and < 10 % four pixels on (V from the two renders), the darkest of that pixel and the
+/// three before it against the mean of the 5th–8th pixels on.
+#[test]
+fn a_cast_shadow_s_lit_edge_is_not_darker_than_its_umbra() {
+    let path = data_dir().join("scenes/torus.toml");
+    let mut scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    scene.camera.width = 512;
+    scene.camera.height = 512;
+    let assets = scene.load_assets().unwrap_or_else(|e| panic!("{e}"));
+    let render = |non_local| {
+        let scene = Scene {
+            non_local,
+            ..scene.clone()
+        };
+        render_predictable(&scene, &assets)
+    };
+    let local = render(NonLocal::OFF);
+    let shadowed = render(NonLocal {
+        shadows: true,
+        ..NonLocal::OFF
+    });
+    let every = render(NonLocal::ALL);
+    let red = |image: &RgbaImage, x: i64, y: i64| image.pixels[(y * 512 + x) as usize][0];
+    let visibility = |x: i64, y: i64| {
+        let f = red(&local, x, y);
+        if f > 1e-6 {
+            red(&shadowed, x, y) / f
+        } else {
+            1.0
+        }
+    };
+    let mut ratios = Vec::new();
+    for y in 0..512 {
+        for x in 8..504 {
+            for step in [1i64, -1] {
+                let inside = (-3..10).all(|k| {
+                    let i = x + k * step;
+                    red(&local, i, y) > 0.0 && red(&every, i, y) > 0.0
+                });
+                if !(inside && visibility(x, y) > 0.95 && visibility(x + 4 * step, y) < 0.1) {
+                    continue;
+                }
+                let lit = (0..4)
+                    .map(|k| red(&every, x - k * step, y))
+                    .fold(f32::INFINITY, f32::min);
+                let umbra = (5..9).map(|k| red(&every, x + k * step, y)).sum::<f32>() / 4.0;
+                ratios.push((lit / umbra, x, y));
+            }
+        }
+    }
+    ratios.sort_by(|a, b| a.0.total_cmp(&b.0));
+    println!(
+        "{} edge crossings, lit edge / umbra from {:?}",
+        ratios.len(),
+        &ratios[..ratios.len().min(4)]
+    );
+    assert!(ratios.len() >= 20, "too few crossings: {}", ratios.len());
+    let (worst, x, y) = ratios[0];
+    assert!(
+        worst > 0.75,
+        "the lit edge at ({x}, {y}) renders {worst:.2} × the umbra beside it"
+    );
+}
+
 /// On a coarse mesh (edges ≫ the scattering length) the per-vertex terms are interpolated
 /// across large triangles: they must stay as smooth as the local model there too. A wax torus
 /// (r = 30 / 14 mm) of 24 × 12 segments, 7–8 mm edges, tilted so its hole shows and its inner

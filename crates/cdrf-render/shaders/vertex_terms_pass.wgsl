@@ -136,31 +136,42 @@ fn vertex_non_local(
             light_frame_vector(index, normal),
             shape_curvature_per_mm,
         );
-        terms.gather = subsurface_gather(index, shape);
         let light = frame.lights[index];
         let incidence = light_incidence(light, world_position);
         let theta = angle(dot(normal, incidence.to_light));
         let v = terms.visibility;
+        let gathered = subsurface_gather(index, shape)
+            * confinement_gain(
+                terms.thickness_mm,
+                dot(shape.normal, light_ray(index, shape.point)),
+                shape_curvature_per_mm,
+            );
+        // The shadowed share's light, (1 − V)·G, is scaled by √s where shadows are on: s read
+        // at the mean curvature, the sphere whose shadow side stands for the body around the
+        // point (both directions confine the light). Along the light, a face lit at grazing
+        // angles would read the largest sphere's shadow side, which the photographs barely
+        // measure. s is that sphere's own correction of the profile; a body that is not the
+        // sphere gets half of it in log (√s): the 15 mm cap at the end of a 70 mm capsule is lit
+        // through the capsule's length (docs/shading.md).
+        var shadow_scale = vec3<f32>(1.0);
         if SHADOWS && any(v < vec3<f32>(1.0)) {
-            // s read at the mean curvature: the sphere whose shadow side stands for the body
-            // around the point (both directions confine the light). Along the light, a face lit
-            // at grazing angles would read the largest sphere's shadow side, which the
-            // photographs barely measure. s is that sphere's own correction of the profile; a
-            // body that is not the sphere gets half of it in log (√s): the 15 mm cap at the end
-            // of a 70 mm capsule is lit through the capsule's length (docs/shading.md).
-            let gain = subsurface_gain_value(curvature_per_mm, theta);
-            terms.gather *= v + (vec3<f32>(1.0) - v) * sqrt(gain);
+            shadow_scale = sqrt(subsurface_gain_value(curvature_per_mm, theta));
         }
-        terms.gather *= confinement_gain(
-            terms.thickness_mm,
-            dot(shape.normal, light_ray(index, shape.point)),
-            shape_curvature_per_mm,
-        );
-        // By V whether or not shadows are on: G misses the sources the light's map cannot see
-        // as F_sphere·V does, so that G − V·F_sphere ≈ 0 on a sphere even in a cast shadow, and
-        // without shadows the pixel keeps its f whole.
-        terms.gather -= sphere_far_field(light, incidence, theta, light_curvature_per_mm)
-            * terms.visibility;
+        // The lit share: G less the far field F_sphere the table already holds, by V whether or
+        // not shadows are on (G misses the sources the light's map cannot see as V·F_sphere
+        // does, so in a cast shadow G ≈ 0 ≈ V·F_sphere and without shadows the pixel keeps its
+        // f whole). Where G falls short of F_sphere (sources hidden beyond a cast shadow's edge)
+        // the shortfall is at most the table's own share f / F_sphere of it: where the
+        // profile's F_sphere exceeds the table (a large sphere's terminator, up to 1.4 f) the
+        // near field f − F_sphere is negative, and the whole shortfall would leave a cast
+        // shadow's lit edge darker than its umbra.
+        let far = sphere_far_field(light, incidence, theta, light_curvature_per_mm);
+        let table = lut_value(light_curvature_per_mm, theta) * incidence.irradiance
+            / max(light_strength(light), vec3<f32>(1e-30));
+        let table_share = min(table / max(far, vec3<f32>(1e-30)), vec3<f32>(1.0));
+        let lit = v * (gathered - far);
+        terms.gather = select(lit, lit * table_share, lit < vec3<f32>(0.0))
+            + (vec3<f32>(1.0) - v) * shadow_scale * gathered;
     }
     return terms;
 }
