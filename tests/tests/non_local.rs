@@ -854,7 +854,9 @@ fn interreflection_bounces_as_inside_a_hollow_sphere() {
 /// g(π, 0)/π, w_q the upstream loss (1 − UPSTREAM_LOSS·max(−c, 0), c the cosine between q's ray
 /// and q's direction to the point: the point light's rays spread, so the point lies upstream of
 /// the back face's far parts), which the test integrates on its own on a fine grid from
-/// cdrf-core's `FarField`. The renderer sums the back face's texels in the light's pyramid.
+/// cdrf-core's `FarField`, times the confinement gain of a 4 mm flat body lit from straight
+/// behind (cdrf-core's `subsurface::confinement_gain`: the slab is thinner than any circle). The
+/// renderer sums the back face's texels in the light's pyramid.
 #[test]
 fn the_subsurface_gather_matches_the_profile_through_a_slab() {
     use cdrf_core::diffusion::FarField;
@@ -869,6 +871,17 @@ fn the_subsurface_gather_matches_the_profile_through_a_slab() {
     let kappa_min = f64::from(lut.curvature_axis().min_per_mm);
     let sphere = far.sphere_reflectance(kappa_min, std::f64::consts::PI, &mut Vec::new())[0];
     let thickness_mm = 4.0;
+    let transmission_length_mm = lut
+        .translucency()
+        .expect("the bundled fit has translucency terms")
+        .transmission
+        .length_mm[0];
+    let confinement = f64::from(cdrf_core::subsurface::confinement_gain(
+        thickness_mm,
+        1.0,
+        0.0,
+        transmission_length_mm,
+    ));
     let assets = slab(thickness_mm, Material::Measured(lut));
     let half_height = 40.0;
     let back_mm = -0.5 * thickness_mm;
@@ -923,11 +936,12 @@ fn the_subsurface_gather_matches_the_profile_through_a_slab() {
         let front = light
             .incidence(Vec3::new(0.0, 0.0, -back_mm), 1.0)
             .irradiance[0];
-        let expected = (integral - f64::from(front) * sphere) * g / std::f64::consts::PI;
+        let expected =
+            (integral * confinement - f64::from(front) * sphere) * g / std::f64::consts::PI;
         let centre = pixel_of(0.0, 0.0, half_height);
         let found = f64::from(mean_red(&lit, centre, 4) - mean_red(&dark, centre, 4));
         println!(
-            "slab, {light:?}: the gather adds {found:.5} (the profile says {expected:.5}: ∫ E μ^p R_far dA = {integral:.4}, E_p F_sphere = {:.5})",
+            "slab, {light:?}: the gather adds {found:.5} (the profile says {expected:.5}: ∫ E μ^p R_far dA = {integral:.4}, confinement {confinement:.4}, E_p F_sphere = {:.5})",
             f64::from(front) * sphere
         );
         assert!(

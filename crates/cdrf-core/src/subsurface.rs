@@ -31,6 +31,61 @@ use rayon::prelude::*;
 use crate::diffusion::FarField;
 use crate::lut::{CdrfLut, CurvatureAxis, theta_rad_at};
 
+/// The confinement gain on the gather's light on the shadow side of a body thinner along the
+/// light than the circle of the point's local shape predicts ([`confinement_gain`]): at most
+/// 1 + this. Fitted to the blob, the capsule and Skin1's blob lit from behind, the side-lit
+/// capsule, the torus and knot view 2 (docs/research/thick-bodies.md).
+pub const CONFINEMENT_GAIN: f32 = 0.85;
+/// The body's thickness in these many transmission lengths ℓ_T brings the gain to 1 − e⁻¹ of
+/// its whole.
+pub const CONFINEMENT_THICKNESS_LENGTHS: f32 = 2.0;
+/// How much thinner than the chord (mm) a body must be before it counts as confining.
+pub const CONFINEMENT_TOLERANCE_MM: f32 = 1.0;
+/// n · the light's ray (−cos θ) from which the gain is whole: θ ≈ 115° (near the terminator the
+/// light runs along the surface).
+pub const CONFINEMENT_FULL_FROM: f32 = 0.42;
+
+/// The gain on the gathered light G at a point on the shadow side of a body thinner along the
+/// light than the circle of its local shape — wider than it is thick, as a thick body lit from
+/// behind or a tube's far side: the spheres the profile was fitted to lose light through their
+/// curved sides that such a body keeps. 1 on a sphere, whose chord is the circle's; it grows
+/// with how much thinner the body is (on the scale of the transmission length ℓ_T) and with
+/// the thickness itself (light that crossed a body a few ℓ_T thick), to at most
+/// 1 + [`CONFINEMENT_GAIN`], faded in from the terminator to [`CONFINEMENT_FULL_FROM`]. Where
+/// the curvature is ≤ 0 the chord is unbounded (thinner than any circle).
+///
+/// `thickness_mm`: the body along the light at the point; `along`: n · the light's ray (> 0 on
+/// the shadow side); `curvature_per_mm`: the local shape's; `transmission_length_mm`: ℓ_T (one
+/// channel's). The renderer's `gather.wgsl` mirrors this.
+///
+/// ```
+/// use cdrf_core::subsurface::{confinement_gain, CONFINEMENT_GAIN};
+/// // A sphere of r = 20 mm, 130° from the light: its chord there is its thickness.
+/// let along = 130f32.to_radians().cos().abs();
+/// assert_eq!(confinement_gain(2.0 * 20.0 * along, along, 1.0 / 20.0, 9.0), 1.0);
+/// // A 40 mm slab lit from straight behind confines almost the whole gain.
+/// let slab = confinement_gain(40.0, 1.0, 0.0, 9.0);
+/// assert!(slab > 1.0 + 0.85 * CONFINEMENT_GAIN && slab <= 1.0 + CONFINEMENT_GAIN);
+/// ```
+pub fn confinement_gain(
+    thickness_mm: f32,
+    along: f32,
+    curvature_per_mm: f32,
+    transmission_length_mm: f32,
+) -> f32 {
+    if thickness_mm <= 0.0 || along <= 0.0 {
+        return 1.0;
+    }
+    // The limit of a vanishing curvature, so the gain is continuous where it changes sign.
+    let chord_mm = 2.0 * along / curvature_per_mm.max(1e-6);
+    let thinner_mm = (chord_mm - thickness_mm - CONFINEMENT_TOLERANCE_MM).clamp(0.0, thickness_mm);
+    let length_mm = transmission_length_mm;
+    let thick = 1.0 - (-thickness_mm / (CONFINEMENT_THICKNESS_LENGTHS * length_mm)).exp();
+    let t = (along / CONFINEMENT_FULL_FROM).clamp(0.0, 1.0);
+    let deep = t * t * (3.0 - 2.0 * t);
+    1.0 + CONFINEMENT_GAIN * deep * thick * (1.0 - (-thinner_mm / length_mm).exp())
+}
+
 /// The kernel reaches this many of the far field's longest length: beyond it `R_far` is below
 /// e⁻¹² of its start.
 pub const REACH_LENGTHS: f64 = 12.0;

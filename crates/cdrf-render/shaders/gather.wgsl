@@ -249,24 +249,11 @@ fn upstream_weight(ray: vec3<f32>, shape: LocalShape, q: vec3<f32>, texel_mm: f3
 
 // The gain on G on the shadow side of a body thinner along the light than the circle of the
 // point's local shape predicts (the curvature the shadow test and the gather read, so one
-// circle stands for the body in all three) — wider than it is thick, as a thick body lit from
-// behind or a tube's far side: the spheres the profile was fitted to lose light through their
-// curved sides that such a body keeps (confinement). 1 on a sphere, whose chord is the
-// circle's. The gain grows with how much thinner it is (per channel, on the scale of the
-// transmission length ℓ_T) and with the thickness itself (light that crossed a body a few ℓ_T
-// thick; a 7 mm strand barely), to at most 1 + CONFINEMENT_GAIN, faded in from the terminator
-// to θ ≈ 115° (near the terminator the light runs along the surface). Where the mean
-// curvature is ≤ 0 the chord is unbounded (thinner than any circle); a point flat or concave
-// along the light on a convex body reads a quarter of the mean. Fitted to the blob, the
-// capsule and Skin1's blob lit from behind, the side-lit capsule, the torus and knot view 2
-// (docs/research/thick-bodies.md).
-const CONFINEMENT_GAIN: f32 = 0.85;
-const CONFINEMENT_THICKNESS_LENGTHS: f32 = 2.0;
-const CONFINEMENT_TOLERANCE_MM: f32 = 1.0;
-// n · the light's ray (−cos θ) where the gain is whole: θ ≈ 115°.
-const CONFINEMENT_FULL_FROM: f32 = 0.42;
-// `thickness_mm`: the body along the light at the point (NonLocalTerms); `along`: n · the
-// light's ray (> 0 on the shadow side); `shape_curvature_per_mm`: shadow_shape_curvature_per_mm.
+// circle stands for the body in all three): cdrf-core's subsurface::confinement_gain, whose
+// constants these are (CONFINEMENT_*), per channel on the material's transmission length. A
+// point flat or concave along the light on a convex body reads a quarter of the mean
+// (shadow_shape_curvature_per_mm). `thickness_mm`: the body along the light at the point
+// (NonLocalTerms); `along`: n · the light's ray (> 0 on the shadow side).
 fn confinement_gain(thickness_mm: f32, along: f32, shape_curvature_per_mm: f32) -> vec3<f32> {
     if thickness_mm <= 0.0 || along <= 0.0 {
         return vec3<f32>(1.0);

@@ -74,6 +74,24 @@ pub fn wgsl_constants() -> String {
         "const UPSTREAM_LOSS: f32 = {:?};\n",
         cdrf_core::diffusion::UPSTREAM_LOSS
     ));
+    // The gather's confinement gain (cdrf-core's subsurface::confinement_gain; gather.wgsl).
+    for (name, value) in [
+        ("CONFINEMENT_GAIN", cdrf_core::subsurface::CONFINEMENT_GAIN),
+        (
+            "CONFINEMENT_THICKNESS_LENGTHS",
+            cdrf_core::subsurface::CONFINEMENT_THICKNESS_LENGTHS,
+        ),
+        (
+            "CONFINEMENT_TOLERANCE_MM",
+            cdrf_core::subsurface::CONFINEMENT_TOLERANCE_MM,
+        ),
+        (
+            "CONFINEMENT_FULL_FROM",
+            cdrf_core::subsurface::CONFINEMENT_FULL_FROM,
+        ),
+    ] {
+        wgsl.push_str(&format!("const {name}: f32 = {value:?};\n"));
+    }
     // The view's azimuth (cdrf-core's azimuth module; tables.wgsl's view_azimuth).
     for (name, value) in [
         ("SHADOW_FLUX_GAIN", cdrf_core::azimuth::SHADOW_FLUX_GAIN),
