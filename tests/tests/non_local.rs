@@ -200,11 +200,12 @@ fn a_shape_shadowing_another() {
     );
 }
 
-/// Shadows off, the gather on: the pixel keeps f unshadowed, so the far field the table holds
-/// (F_sphere) must leave G whole too, not by the visibility V that the gather's maps still
-/// compute. Behind the small sphere of `a_shape_shadowing_another` (V ≈ 0 there) the big sphere
-/// then renders as the table alone does, give or take the gather's light from the small sphere;
-/// taking out V·F_sphere instead would add F_sphere, most of the lit side's f for the wax.
+/// Shadows off, the gather on: the pixel keeps f unshadowed, and G − V·F_sphere stays ≈ 0 in a
+/// cast shadow (G cannot see the sources the light's map hides, V·F_sphere leaves as much), so
+/// behind the small sphere of `a_shape_shadowing_another` (V ≈ 0 there) the big sphere renders
+/// as the table alone does, give or take the gather's light from the small sphere. Taking out
+/// the whole F_sphere instead (most of the lit side's f for the wax) drew a shadow: 0.103
+/// against the table's 0.178.
 #[test]
 fn without_shadows_the_gather_leaves_a_cast_shadow_as_the_table() {
     let (lut, _) = wax();
@@ -480,9 +481,9 @@ fn a_cast_shadow_s_lit_edge_is_not_darker_than_its_umbra() {
     };
     let mut ratios = Vec::new();
     for y in 0..512 {
-        for x in 8..504 {
+        for x in 9..503 {
             for step in [1i64, -1] {
-                let inside = (-3..10).all(|k| {
+                let inside = (-3..9).all(|k| {
                     let i = x + k * step;
                     red(&local, i, y) > 0.0 && red(&every, i, y) > 0.0
                 });

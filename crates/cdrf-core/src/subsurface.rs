@@ -56,7 +56,8 @@ pub const CONFINEMENT_FULL_FROM: f32 = 0.42;
 ///
 /// `thickness_mm`: the body along the light at the point; `along`: n · the light's ray (> 0 on
 /// the shadow side); `curvature_per_mm`: the local shape's; `transmission_length_mm`: ℓ_T (one
-/// channel's). The renderer's `gather.wgsl` mirrors this.
+/// channel's). 1 where any of them is not positive or not a number. The renderer's
+/// `gather.wgsl` mirrors this.
 ///
 /// ```
 /// use cdrf_core::subsurface::{confinement_gain, CONFINEMENT_GAIN};
@@ -73,7 +74,7 @@ pub fn confinement_gain(
     curvature_per_mm: f32,
     transmission_length_mm: f32,
 ) -> f32 {
-    if thickness_mm <= 0.0 || along <= 0.0 {
+    if !(thickness_mm > 0.0 && along > 0.0 && transmission_length_mm > 0.0) {
         return 1.0;
     }
     // The limit of a vanishing curvature, so the gain is continuous where it changes sign.

@@ -7,10 +7,9 @@
 @group(1) @binding(1) var lut: texture_2d<f32>;
 @group(1) @binding(2) var view_correction: texture_2d<f32>;
 @group(1) @binding(3) var lut_sampler: sampler;
-// The LUT's rows, then the rows of F_sphere(κ, θ), R_far over the osculating sphere (0 where
-// the material has no diffusion profile), which the vertex terms take out of the gather
-// (sphere_far_field); then the rows of ℓ·(−∂ ln f/∂θ) the view's azimuth reads
-// (surface_flow_value).
+// The rows of F_sphere(κ, θ), R_far over the osculating sphere (0 where the material has no
+// diffusion profile), which the vertex terms take out of the gather (sphere_far_field); then
+// the rows of ℓ·(−∂ ln f/∂θ) the view's azimuth reads (surface_flow_value).
 @group(1) @binding(4) var lut_blocks: texture_2d<f32>;
 // s(κ, θ): the measured table over F_sphere on the sphere's shadow side (docs/shading.md).
 @group(1) @binding(5) var subsurface_gain: texture_2d<f32>;

@@ -265,5 +265,6 @@ fn confinement_gain(thickness_mm: f32, along: f32, shape_curvature_per_mm: f32) 
     let length_mm = material.transmission_length_mm;
     let thick = 1.0 - exp(-thickness_mm / (CONFINEMENT_THICKNESS_LENGTHS * length_mm));
     let deep = smoothstep(0.0, CONFINEMENT_FULL_FROM, along);
-    return 1.0 + CONFINEMENT_GAIN * deep * thick * (1.0 - exp(-thinner_mm / length_mm));
+    let gain = 1.0 + CONFINEMENT_GAIN * deep * thick * (1.0 - exp(-thinner_mm / length_mm));
+    return select(vec3<f32>(1.0), gain, length_mm > vec3<f32>(0.0));
 }

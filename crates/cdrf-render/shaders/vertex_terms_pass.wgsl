@@ -160,11 +160,11 @@ fn vertex_non_local(
         // The lit share: G less the far field F_sphere the table already holds, by V whether or
         // not shadows are on (G misses the sources the light's map cannot see as V·F_sphere
         // does, so in a cast shadow G ≈ 0 ≈ V·F_sphere and without shadows the pixel keeps its
-        // f whole). Where G falls short of F_sphere (sources hidden beyond a cast shadow's edge)
-        // the shortfall is at most the table's own share f / F_sphere of it: where the
-        // profile's F_sphere exceeds the table (a large sphere's terminator, up to 1.4 f) the
-        // near field f − F_sphere is negative, and the whole shortfall would leave a cast
-        // shadow's lit edge darker than its umbra.
+        // f whole). Where G falls short of F_sphere (most of all where sources lie hidden beyond
+        // a cast shadow's edge) the shortfall is at most the table's own share f / F_sphere of
+        // it: where the profile's F_sphere exceeds the table (a large sphere's terminator, up to
+        // 1.4 f) the near field f − F_sphere is negative, and the whole shortfall would leave a
+        // cast shadow's lit edge darker than its umbra.
         let far = sphere_far_field(light, incidence, theta, light_curvature_per_mm);
         let table = lut_value(light_curvature_per_mm, theta) * incidence.irradiance
             / max(light_strength(light), vec3<f32>(1e-30));
