@@ -203,7 +203,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         let deep_deg = report.diffusion.measured_deep_shadow_deg;
         if deep_deg < cdrf_fit::fit::DEEP_SHADOW_MIN_DEG {
             eprintln!(
-                "warning: no sphere's shadow side is measured past theta {:.0} deg ({deep_deg:.1} deg at most, free of the room's light and inside the band): how far light travels in the material (the diffusion profile's long terms, which the renderer's subsurface terms read) is a guess; photograph the largest sphere without lit neighbours or room light (docs/captures.md; an opaque material has none to measure)",
+                "warning: no sphere's shadow side is measured past theta {:.0} deg ({deep_deg:.1} deg at most, free of the room's light and inside the band): how far light travels in the material (the diffusion profile's long terms, which the renderer's subsurface terms read) is a guess; photograph the spheres one at a time, in a dark room for the largest (docs/captures.md; an opaque material has none to measure)",
                 cdrf_fit::fit::DEEP_SHADOW_FROM_DEG
             );
         }
