@@ -94,22 +94,14 @@ fn shadow_shape_curvature_per_mm(mean_per_mm: f32, along_light_per_mm: f32) -> f
     return max(min(mean_per_mm, along_light_per_mm), 0.25 * mean_per_mm);
 }
 
-// F_sphere, the far field the table holds (lut_blocks' first block), in G's units (per unit
-// of the light's strength): taken out of G here rather than out of f per pixel, so that G and
-// the far field it replaces are interpolated alike and cancel on a sphere. `theta`: between the
-// normal and `incidence.to_light`.
-fn sphere_far_field(
-    light: Light,
-    incidence: Incidence,
-    theta: f32,
-    curvature_per_mm: f32,
-) -> vec3<f32> {
+// F_sphere(κ, θ), the far field the table holds (lut_blocks' first block), π·L/E as the table;
+// 0 for models without a table. Taken out of G per vertex rather than out of f per pixel, so
+// that G and the far field it replaces are interpolated alike and cancel on a sphere.
+fn sphere_far_field(curvature_per_mm: f32, theta: f32) -> vec3<f32> {
     if !(MODEL == MODEL_MEASURED || MODEL == MODEL_GAUSSIAN_LUT) {
         return vec3<f32>(0.0);
     }
-    let far = sphere_far_field_value(curvature_per_mm, theta);
-    let strength = light_strength(light);
-    return select(vec3<f32>(0.0), far * incidence.irradiance / strength, strength > vec3<f32>(0.0));
+    return sphere_far_field_value(curvature_per_mm, theta);
 }
 
 // The per-vertex terms of shadowed light `index`: visibility and T(d, μ) from the shadow map,
@@ -165,11 +157,19 @@ fn vertex_non_local(
         // it: where the profile's F_sphere exceeds the table (a large sphere's terminator, up to
         // 1.4 f) the near field f − F_sphere is negative, and the whole shortfall would leave a
         // cast shadow's lit edge darker than its umbra.
-        let far = sphere_far_field(light, incidence, theta, light_curvature_per_mm);
-        let table = lut_value(light_curvature_per_mm, theta) * incidence.irradiance
-            / max(light_strength(light), vec3<f32>(1e-30));
-        let table_share = min(table / max(far, vec3<f32>(1e-30)), vec3<f32>(1.0));
-        let lit = v * (gathered - far);
+        let far = sphere_far_field(light_curvature_per_mm, theta);
+        let table_share = min(
+            lut_value(light_curvature_per_mm, theta) / max(far, vec3<f32>(1e-30)),
+            vec3<f32>(1.0),
+        );
+        // F_sphere in G's units: per unit of the light's strength, at this point's irradiance.
+        let strength = light_strength(light);
+        let per_strength = select(
+            vec3<f32>(0.0),
+            incidence.irradiance / strength,
+            strength > vec3<f32>(0.0),
+        );
+        let lit = v * (gathered - far * per_strength);
         terms.gather = select(lit, lit * table_share, lit < vec3<f32>(0.0))
             + (vec3<f32>(1.0) - v) * shadow_scale * gathered;
     }
