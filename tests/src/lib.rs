@@ -65,20 +65,30 @@ pub fn render_predictable(scene: &Scene, assets: &SceneAssets) -> RgbaImage {
 /// The radius of the sphere of `data/scenes/sphere_r35.toml`, mm (world units).
 pub const SPHERE_RADIUS_MM: f32 = 35.0;
 
+/// The bundled scene `data/scenes/<name>.toml` at `size` × `size` px (its own MSAA), with its
+/// assets loaded.
+///
+/// # Panics
+/// If the scene or its assets cannot be loaded.
+pub fn bundled_scene(name: &str, size: u32) -> (Scene, SceneAssets) {
+    let path = data_dir().join(format!("scenes/{name}.toml"));
+    let mut scene = Scene::load(&path).unwrap_or_else(|error| panic!("{error}"));
+    scene.camera.width = size;
+    scene.camera.height = size;
+    let assets = scene
+        .load_assets()
+        .unwrap_or_else(|error| panic!("{error}"));
+    (scene, assets)
+}
+
 /// The r = 35 mm sphere scene (`data/scenes/sphere_r35.toml`: world units are mm, an
 /// orthographic camera along −z) at `size` × `size` px, no MSAA, with its assets loaded.
 ///
 /// # Panics
 /// If the scene or its assets cannot be loaded.
 pub fn sphere_scene(size: u32) -> (Scene, SceneAssets) {
-    let path = data_dir().join("scenes/sphere_r35.toml");
-    let mut scene = Scene::load(&path).unwrap_or_else(|error| panic!("{error}"));
-    scene.camera.width = size;
-    scene.camera.height = size;
+    let (mut scene, assets) = bundled_scene("sphere_r35", size);
     scene.camera.msaa_samples = 1;
-    let assets = scene
-        .load_assets()
-        .unwrap_or_else(|error| panic!("{error}"));
     (scene, assets)
 }
 

@@ -11,7 +11,7 @@ use cdrf_core::light::{DirectionalLight, Light, NonLocal, PointLight, SpotLight}
 use cdrf_core::mesh::MeshSurfaces;
 use cdrf_core::scene::{Material, ModelTransform, Projection, Scene};
 use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
-use cdrf_tests::{data_dir, merged, render_predictable, sphere_points, sphere_scene};
+use cdrf_tests::{bundled_scene, merged, render_predictable, sphere_points, sphere_scene};
 
 const TOLERANCE: Tolerance = Tolerance {
     mean_flip: 0.005,
@@ -105,15 +105,9 @@ fn lambert_sphere_under_a_spot_light_matches_its_cone() {
 /// inter-reflection on top of them.
 #[test]
 fn each_light_keeps_its_own_non_local_terms_whatever_the_order() {
-    let path = data_dir().join("scenes/torus.toml");
-    let mut scene = Scene::load(&path).unwrap_or_else(|error| panic!("{error}"));
-    scene.camera.width = 128;
-    scene.camera.height = 128;
+    let (mut scene, assets) = bundled_scene("torus", 128);
     scene.camera.msaa_samples = 1;
     scene.non_local = NonLocal::ALL;
-    let assets = scene
-        .load_assets()
-        .unwrap_or_else(|error| panic!("{error}"));
     let Some(Light::Directional(sun)) = scene.lights.first().copied() else {
         panic!("the torus scene has a directional light");
     };

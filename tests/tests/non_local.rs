@@ -19,7 +19,7 @@ use cdrf_core::{CdrfLut, Mesh, Translucency, read_lut};
 use cdrf_render::Options;
 use cdrf_render::headless::{RenderSettings, render_scene};
 use cdrf_tests::golden::{Srgb8Image, Tolerance, assert_golden};
-use cdrf_tests::{data_dir, merged, render_predictable, software_device};
+use cdrf_tests::{bundled_scene, data_dir, merged, render_predictable, software_device};
 
 /// As in `render.rs`: lavapipe renders are deterministic; any real change of the terms moves
 /// the mean FLIP above this.
@@ -120,24 +120,32 @@ fn mean_red(image: &RgbaImage, (column, row): (u32, u32), radius: u32) -> f32 {
     sum / count
 }
 
-/// A 12 mm sphere left of (toward the light from) a 25 mm sphere and nearer the camera: its
-/// shadow falls on the big sphere's visible lit side, softly; neither sphere shadows itself.
-#[test]
-fn a_shape_shadowing_another() {
-    let (lut, translucency) = wax();
-    let small_centre = Vec3::new(-32.0, 10.0, 17.3);
-    let big_centre = Vec3::new(12.0, 0.0, 0.0);
+/// Where [`two_spheres`] puts them: the small sphere's centre and the big one's, mm.
+const SMALL_CENTRE: Vec3 = Vec3::new(-32.0, 10.0, 17.3);
+const BIG_CENTRE: Vec3 = Vec3::new(12.0, 0.0, 0.0);
+
+/// A 12 mm and a 25 mm sphere of `lut`'s material at [`SMALL_CENTRE`] and [`BIG_CENTRE`]: lit
+/// along −x, the small one shadows the big one's visible lit side (in a 45 mm frame).
+fn two_spheres(lut: CdrfLut) -> SceneAssets {
     let (mesh, curvature) = merged(&[
-        (Mesh::icosphere(12.0, 5), small_centre),
-        (Mesh::icosphere(25.0, 5), big_centre),
+        (Mesh::icosphere(12.0, 5), SMALL_CENTRE),
+        (Mesh::icosphere(25.0, 5), BIG_CENTRE),
     ]);
-    let assets = SceneAssets {
+    SceneAssets {
         mesh,
         curvature_per_mm: curvature.mean_per_mm,
         curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
         material: Material::Measured(lut),
         surfaces: Default::default(),
-    };
+    }
+}
+
+/// A 12 mm sphere left of (toward the light from) a 25 mm sphere and nearer the camera: its
+/// shadow falls on the big sphere's visible lit side, softly; neither sphere shadows itself.
+#[test]
+fn a_shape_shadowing_another() {
+    let (lut, translucency) = wax();
+    let assets = two_spheres(lut);
     let half_height = 45.0;
     let light = Vec3::NEG_X;
     let off = render_predictable(&scene(half_height, light, NonLocal::OFF), &assets);
@@ -155,14 +163,14 @@ fn a_shape_shadowing_another() {
 
     // On the big sphere facing the light, straight behind the small one (cos θ = 0.6): the
     // poster's model lights it fully; with shadows it is in the umbra.
-    let behind = pixel_of(big_centre.x - 15.0, small_centre.y, half_height);
+    let behind = pixel_of(BIG_CENTRE.x - 15.0, SMALL_CENTRE.y, half_height);
     let (lit, dark) = (mean_red(&off, behind, 1), mean_red(&shadowed, behind, 1));
     println!("behind the small sphere: {lit:.4} without shadows, {dark:.4} with");
     assert!(lit > 0.15, "{lit}");
     assert!(dark < 0.1 * lit, "not in shadow: {dark} vs {lit}");
 
     // Outside the shadow (below it, 12 mm from its edge, cos θ = 0.6 too) nothing changes.
-    let beside = pixel_of(big_centre.x - 15.0, -14.0, half_height);
+    let beside = pixel_of(BIG_CENTRE.x - 15.0, -14.0, half_height);
     let (a, b) = (mean_red(&off, beside, 1), mean_red(&shadowed, beside, 1));
     assert!((a - b).abs() < 0.01 * a, "outside the shadow: {a} vs {b}");
 
@@ -170,7 +178,7 @@ fn a_shape_shadowing_another() {
     // self-shadowing), its lit side, terminator and glowing shadow side alike.
     let mut worst: f32 = 0.0;
     for x in [-42.0, -36.0, -32.0, -28.0, -24.0] {
-        let p = pixel_of(x, small_centre.y, half_height);
+        let p = pixel_of(x, SMALL_CENTRE.y, half_height);
         let (a, b) = (mean_red(&off, p, 0), mean_red(&shadowed, p, 0));
         worst = worst.max((a - b).abs() / a.max(1e-4));
     }
@@ -185,10 +193,10 @@ fn a_shape_shadowing_another() {
     let sigma_mm = translucency.scattering_length_mm[0];
     let mut profile = Vec::new();
     let mm_per_px = 2.0 * half_height / SIZE as f32;
-    let edge_y = small_centre.y - 11.7; // the shadow's lower border (light along x)
+    let edge_y = SMALL_CENTRE.y - 11.7; // the shadow's lower border (light along x)
     let mut y = edge_y + 2.0 * sigma_mm;
     while y > edge_y - 2.0 * sigma_mm {
-        let p = pixel_of(big_centre.x - 15.0, y, half_height);
+        let p = pixel_of(BIG_CENTRE.x - 15.0, y, half_height);
         profile.push(mean_red(&shadowed, p, 0) / mean_red(&off, p, 0).max(1e-6));
         y -= mm_per_px;
     }
@@ -209,19 +217,7 @@ fn a_shape_shadowing_another() {
 #[test]
 fn without_shadows_the_gather_leaves_a_cast_shadow_as_the_table() {
     let (lut, _) = wax();
-    let small_centre = Vec3::new(-32.0, 10.0, 17.3);
-    let big_centre = Vec3::new(12.0, 0.0, 0.0);
-    let (mesh, curvature) = merged(&[
-        (Mesh::icosphere(12.0, 5), small_centre),
-        (Mesh::icosphere(25.0, 5), big_centre),
-    ]);
-    let assets = SceneAssets {
-        mesh,
-        curvature_per_mm: curvature.mean_per_mm,
-        curvature_anisotropy_per_mm: curvature.anisotropy_per_mm,
-        material: Material::Measured(lut),
-        surfaces: Default::default(),
-    };
+    let assets = two_spheres(lut);
     let half_height = 45.0;
     let light = Vec3::NEG_X;
     let table = render_predictable(&scene(half_height, light, NonLocal::OFF), &assets);
@@ -235,10 +231,10 @@ fn without_shadows_the_gather_leaves_a_cast_shadow_as_the_table() {
         for (where_, x_mm, y_mm) in [
             (
                 "behind the small sphere",
-                big_centre.x - 15.0,
-                small_centre.y,
+                BIG_CENTRE.x - 15.0,
+                SMALL_CENTRE.y,
             ),
-            ("outside its shadow", big_centre.x - 15.0, -14.0),
+            ("outside its shadow", BIG_CENTRE.x - 15.0, -14.0),
         ] {
             let p = pixel_of(x_mm, y_mm, half_height);
             let (a, b) = (mean_red(&table, p, 1), mean_red(&gathered, p, 1));
@@ -410,11 +406,7 @@ fn non_local_terms_do_not_pattern_the_surface() {
         ("torus", 1.08, 1.1),
         ("knot-point", 1.08, 1.3),
     ] {
-        let path = data_dir().join(format!("scenes/{name}.toml"));
-        let mut scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-        scene.camera.width = 512;
-        scene.camera.height = 512;
-        let assets = scene.load_assets().unwrap_or_else(|e| panic!("{e}"));
+        let (scene, assets) = bundled_scene(name, 512);
         let roughness_with = |non_local| {
             let scene = Scene {
                 non_local,
@@ -452,11 +444,7 @@ fn non_local_terms_do_not_pattern_the_surface() {
 /// three before it against the mean of the 5th–8th pixels on.
 #[test]
 fn a_cast_shadow_s_lit_edge_is_not_darker_than_its_umbra() {
-    let path = data_dir().join("scenes/torus.toml");
-    let mut scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    scene.camera.width = 512;
-    scene.camera.height = 512;
-    let assets = scene.load_assets().unwrap_or_else(|e| panic!("{e}"));
+    let (scene, assets) = bundled_scene("torus", 512);
     let render = |non_local| {
         let scene = Scene {
             non_local,
