@@ -44,7 +44,9 @@
 //! and on a plane lit head-on every point is level with it (c = 0): neither changes; light
 //! running back up a lit slope or a fold does. The profile itself, fitted to the spheres'
 //! f, stays isotropic: the loss only moves light between the gathered far field and the
-//! table's near field (`f − F_sphere`), so a sphere keeps its table.
+//! table's near field (`f − F_sphere`), so a sphere keeps its table. The near field's own
+//! penumbra weighs its surface points the same way ([`NEAR_FIELD_UPSTREAM_LOSS`]): a shadow's
+//! edge is sharper where the lit surface lies downstream of it.
 //!
 //! ```
 //! use cdrf_core::diffusion::{DiffusionProfile, ProfileTerm};
@@ -82,6 +84,16 @@ pub const MAX_ENTRY_COSINE_POWER: f32 = 4.0;
 /// `1 − UPSTREAM_LOSS · max(−c, 0)`. Fitted to the knot, the torus and the thick bodies
 /// lit from the side and from behind (docs/research/thick-bodies.md, tenth pass).
 pub const UPSTREAM_LOSS: f32 = 1.0;
+
+/// The same loss for the near field a renderer keeps from the table (`f − F_sphere`, which
+/// reaches about the cut ℓ_c): each surface point around a point counts
+/// `1 − NEAR_FIELD_UPSTREAM_LOSS · max(−c, 0)` in the point's visibility, c as above (c < 0:
+/// it lies downstream of the point). Larger than [`UPSTREAM_LOSS`]: the run along the light before the light
+/// diffuses (about a mean free path) is a larger share of the near field's reach than of the
+/// far field's. A visibility weighs lit and shadowed points alike, so where nothing is
+/// shadowed (a sphere) it stays 1. Fitted to the side-lit bodies' cast shadows
+/// (docs/research/thick-bodies.md, fifteenth pass).
+pub const NEAR_FIELD_UPSTREAM_LOSS: f32 = 2.0;
 
 /// One term `w · exp(−d/ℓ) / (2π·ℓ·d)` of a [`DiffusionProfile`].
 #[derive(Clone, Copy, Debug, PartialEq)]

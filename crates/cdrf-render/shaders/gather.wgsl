@@ -244,7 +244,14 @@ fn upstream_weight(ray: vec3<f32>, shape: LocalShape, q: vec3<f32>, texel_mm: f3
     }
     let to_point = shape.point - source;
     let c = dot(to_point, ray) / sqrt(max(dot(to_point, to_point) + spread_mm2, 1e-12));
-    return max(1.0 - UPSTREAM_LOSS * max(-c, 0.0), 0.0);
+    return upstream_share(c, UPSTREAM_LOSS);
+}
+
+// The share of a source's light that reaches a point lying at cosine c to the light's travel
+// from it (c < 0: the point lies upstream), for a loss `loss` straight upstream (cdrf-core's
+// diffusion module, "Against the light's travel").
+fn upstream_share(c: f32, loss: f32) -> f32 {
+    return max(1.0 - loss * max(-c, 0.0), 0.0);
 }
 
 // The gain on G on the shadow side of a body thinner along the light than the circle of the

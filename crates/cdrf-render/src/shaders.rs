@@ -68,12 +68,18 @@ pub fn wgsl_constants() -> String {
     wgsl.push_str(&format!(
         "const PENUMBRA_DISC_PER_WIDTH: f32 = {PENUMBRA_DISC_PER_WIDTH:?};\n"
     ));
-    // The gather's loss against the light's travel (cdrf-core's diffusion::UPSTREAM_LOSS, which
-    // F_sphere in the near field's table includes; gather.wgsl's upstream_weight).
-    wgsl.push_str(&format!(
-        "const UPSTREAM_LOSS: f32 = {:?};\n",
-        cdrf_core::diffusion::UPSTREAM_LOSS
-    ));
+    // The losses against the light's travel (cdrf-core's diffusion module): the gather's, which
+    // F_sphere in the near field's table includes (gather.wgsl's upstream_weight), and the
+    // near field's penumbra taps' (penumbra.wgsl).
+    for (name, value) in [
+        ("UPSTREAM_LOSS", cdrf_core::diffusion::UPSTREAM_LOSS),
+        (
+            "NEAR_FIELD_UPSTREAM_LOSS",
+            cdrf_core::diffusion::NEAR_FIELD_UPSTREAM_LOSS,
+        ),
+    ] {
+        wgsl.push_str(&format!("const {name}: f32 = {value:?};\n"));
+    }
     // The gather's confinement gain (cdrf-core's subsurface::confinement_gain; gather.wgsl).
     for (name, value) in [
         ("CONFINEMENT_GAIN", cdrf_core::subsurface::CONFINEMENT_GAIN),
