@@ -88,11 +88,11 @@ pub const UPSTREAM_LOSS: f32 = 1.0;
 /// The same loss for the near field a renderer keeps from the table (`f − F_sphere`, which
 /// reaches about the cut ℓ_c): each surface point around a point counts
 /// `1 − NEAR_FIELD_UPSTREAM_LOSS · max(−c, 0)` in the point's visibility, c as above (c < 0:
-/// it lies downstream of the point). Larger than [`UPSTREAM_LOSS`]: the run along the light before the light
-/// diffuses (about a mean free path) is a larger share of the near field's reach than of the
-/// far field's. A visibility weighs lit and shadowed points alike, so where nothing is
-/// shadowed (a sphere) it stays 1. Fitted to the side-lit bodies' cast shadows
-/// (docs/research/thick-bodies.md, fifteenth pass).
+/// it lies downstream of the point). Larger than [`UPSTREAM_LOSS`]: the light's run along
+/// the light before it diffuses (about a mean free path) is a larger share of the near
+/// field's reach than of the far field's. The visibility weighs lit and shadowed points
+/// alike, so where nothing is shadowed (a sphere) it stays 1. Fitted to the side-lit bodies'
+/// cast shadows (docs/research/thick-bodies.md, fifteenth pass).
 pub const NEAR_FIELD_UPSTREAM_LOSS: f32 = 2.0;
 
 /// One term `w · exp(−d/ℓ) / (2π·ℓ·d)` of a [`DiffusionProfile`].

@@ -143,9 +143,10 @@ fn non_local_terms(
         var weight = vec3<f32>(1.0);
         if taps > 1u {
             if gathers {
-                // A lit tap downstream of the point sends it less: its light moved on along
-                // the light's travel before it diffused (the centre tap, the point itself,
-                // keeps its weight).
+                // A tap downstream of the point counts less, lit or not: the light entering
+                // there moves on along the light's travel, away from the point, before it
+                // diffuses (cdrf-core's NEAR_FIELD_UPSTREAM_LOSS). The centre tap, the point
+                // itself, keeps its weight.
                 weight = material.near_field_taps[k].weight;
                 if k > 0u {
                     // The tap lies its radius from the point (to within the shape's sag).
