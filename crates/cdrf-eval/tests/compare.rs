@@ -386,7 +386,8 @@ fn a_short_diffusion_medium_keeps_its_shadow_side() {
 /// because the lobe's lit flank sends its light on along the light, away from the crescent.
 /// With every term the cast shadow is within 0.8–1.25 × the reference in wax (1.13 here, 1.22
 /// at 256 px) and within 0.8–1.4 × in Skin1 (1.32; 1.51 at 256 px, over the 1.25:
-/// the crescent's edge, a vertex wide, is wider than Skin1's blue diffuses). Without the near
+/// the lit patch beside the crescent is itself too bright, and the crescent's edge, a vertex
+/// wide, is wider than Skin1's blue diffuses, the lesser part). Without the near
 /// field's upstream loss Skin1's was 1.55 (1.85 at 256 px; docs/research/thick-bodies.md,
 /// fifteenth pass).
 #[test]
