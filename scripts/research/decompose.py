@@ -140,6 +140,9 @@ def main():
     ap.add_argument('--pass-spp', type=int, default=4)
     ap.add_argument('--max-events', type=int, default=4096)
     ap.add_argument('--seed', type=int, default=7)
+    ap.add_argument('--channel', type=int, choices=(0, 1, 2),
+                    help="a medium of per-channel sigma_t (Skin1): trace this channel's sigma_t and "
+                         "albedo in all three (read that channel of the output)")
     ap.add_argument('--out', required=True)
     a = ap.parse_args()
     meta = json.load(open(a.sidecar))
@@ -149,7 +152,17 @@ def main():
     up = np.array(cam.get('image_up_world', [0.0, 1.0, 0.0]))
     to_cam = np.array(cam['vector_to_camera_V'])
     look = np.array(cam['look_at_mm'])
-    albedo = Color3f(*meta['material']['albedo'])
+    global SIGMA_T
+    mat = meta['material']
+    albedo = Color3f(*mat['albedo'])
+    sigma_t = mat.get('sigma_t_per_mm', SIGMA_T)
+    if isinstance(sigma_t, list) and len(set(sigma_t)) == 1:
+        SIGMA_T = float(sigma_t[0])
+    elif isinstance(sigma_t, list):
+        if a.channel is None:
+            ap.error('the sidecar has a sigma_t per channel: name one with --channel')
+        SIGMA_T = float(mat['sigma_t_per_mm'][a.channel])
+        albedo = Color3f(float(mat['albedo'][a.channel]))
     lt = meta['light']
     if 'position_mm' in lt:
         LIGHT.update(point=lt['position_mm'], intensity=lt['intensity_rgb'][0], to_light=None)
