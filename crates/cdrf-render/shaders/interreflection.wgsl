@@ -39,12 +39,22 @@ struct Receiver {
     curvature_per_mm: f32,
 }
 
+// What a receiver gathers: π·L/E times the irradiance (before the view correction), and the
+// angle θ_ω (rad) at which it arrives, its cosine's mean weighted by the light each emitter
+// gives (summed over the channels).
+struct Gathered {
+    light: vec3<f32>,
+    arrival_angle: f32,
+}
+
 // Σ over the frame's emitters but `skip` of the light each gives the receiver (a Lambertian
-// disc each: docs/shading.md), π·L/E times the irradiance facing the emitter: f(κ, θ_ω) · E⊥ (the CDRF's zonal expansion at
-// the receiver's mean curvature: zonal_value).
-fn gathered_light(receiver: Receiver, skip: u32) -> vec3<f32> {
+// disc each: docs/shading.md), π·L/E times the irradiance facing the emitter: f(κ, θ_ω) · E⊥
+// (the CDRF's zonal expansion at the receiver's mean curvature: zonal_value).
+fn gathered_light(receiver: Receiver, skip: u32) -> Gathered {
     let response = zonal_response(receiver.curvature_per_mm);
     var sum = vec3<f32>(0.0);
+    var cos_arrival_sum = 0.0;
+    var weight_sum = 0.0;
     let count = arrayLength(&emitters);
     for (var k = 0u; k < count; k++) {
         // Only the fields the sum needs, each read on its own: software rasterisers read a
@@ -61,7 +71,16 @@ fn gathered_light(receiver: Receiver, skip: u32) -> vec3<f32> {
         // The disc's area seen from the point, A cos θ_e, saturates its 1/d² near it.
         let seen_mm2 = area_mm2 * height / d;
         let facing = (*e).exitance * (seen_mm2 / (PI * d2 + seen_mm2));
-        sum += facing * zonal_value(response, -dot(receiver.normal, from_emitter) / d);
+        let cos_arrival = -dot(receiver.normal, from_emitter) / d;
+        let received = facing * zonal_value(response, cos_arrival);
+        sum += received;
+        let weight = received.r + received.g + received.b;
+        cos_arrival_sum += weight * cos_arrival;
+        weight_sum += weight;
     }
-    return sum;
+    var mean_cos_arrival = 1.0;
+    if weight_sum > 0.0 {
+        mean_cos_arrival = cos_arrival_sum / weight_sum;
+    }
+    return Gathered(sum, angle(mean_cos_arrival));
 }

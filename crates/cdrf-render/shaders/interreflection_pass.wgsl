@@ -74,7 +74,7 @@ fn cs_emitter_bounce(
     let k = draw.emitter_first + i;
     var e = emitters[k];
     let receiver = Receiver(e.position_mm, e.normal, e.curvature_per_mm);
-    e.exitance = e.direct + gathered_light(receiver, k);
+    e.exitance = e.direct + gathered_light(receiver, k).light;
     emitters_out[k] = e;
 }
 
@@ -96,6 +96,7 @@ fn cs_vertex_interreflection(
         v.curvature_per_mm,
     );
     // Before the view correction, which the shading pass applies per view.
-    let light = gathered_light(receiver, arrayLength(&emitters));
-    terms_out[i].radiance += vec4<f32>(FRAC_1_PI * light, 0.0);
+    let gathered = gathered_light(receiver, arrayLength(&emitters));
+    let radiance = terms_out[i].radiance.xyz + FRAC_1_PI * gathered.light;
+    terms_out[i].radiance = vec4<f32>(radiance, gathered.arrival_angle);
 }

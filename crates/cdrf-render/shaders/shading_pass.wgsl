@@ -75,10 +75,11 @@ fn vs_main_terms(vertex: VertexIn, terms: VertexTermsIn) -> VertexOut {
     out.through_3 = terms.through_3.xyz;
     var inter_reflected = terms.radiance.xyz;
     if MODEL != MODEL_LAMBERT {
-        // Light from everywhere: the view correction of light along the normal (as the
-        // environment light's), for this view's camera.
+        // The view correction of light arriving at its mean angle θ_ω (w), for this view's
+        // camera: light between a body's parts arrives far from the normal, where a skin-like
+        // medium's view correction is far from that of light along it.
         let phi = angle(dot(normalize(out.world_normal), to_camera_from(out.world_position)));
-        inter_reflected *= view_value(out.curvature_per_mm, 0.0, phi);
+        inter_reflected *= view_value(out.curvature_per_mm, terms.radiance.w, phi);
     }
     out.vertex_radiance += inter_reflected;
     return out;

@@ -149,7 +149,8 @@ struct LightTerms {
 // A vertex's terms, written by the vertex terms pass once per vertex and frame and read by the
 // shading pass as its second vertex buffer (VertexTermsIn): those of each shadowed light, the
 // inter-reflected radiance before the view correction (xyz; cs_vertex_interreflection adds it,
-// the shading pass corrects it for its view) and the vertex's exitance
+// the shading pass corrects it for its view) and the angle at which it arrives (w, rad; the
+// view correction's θ), and the vertex's exitance
 // (xyz, the inter-reflection's source; not read by the shading pass).
 struct VertexTerms {
     lights: array<LightTerms, MAX_SHADOW_LIGHTS>,
